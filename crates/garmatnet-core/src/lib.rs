@@ -1,0 +1,17 @@
+//! Foundations of garmatnet: the material space, triangle meshes and their files, Laplacian
+//! smoothing and the displacement decomposition, SMPL's skeleton and poses, a procedural
+//! capsule body and the procedural T-shirt template.
+//!
+//! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
+
+pub mod error;
+pub mod math;
+pub mod pose;
+pub mod rng;
+pub mod skeleton;
+
+pub use error::{Error, Result};
+pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
+pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
+pub use rng::SplitMix64;
+pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};

@@ -1,0 +1,1 @@
+//! The two GarMatNet networks in Burn, the typed predictor and model files.

@@ -1,0 +1,5 @@
+//! The `garmatnet` command-line tool.
+
+fn main() -> anyhow::Result<()> {
+    Ok(())
+}
