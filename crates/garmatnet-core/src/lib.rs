@@ -4,14 +4,18 @@
 //!
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
+pub mod anchor;
 pub mod error;
 pub mod math;
+pub mod mesh;
 pub mod pose;
 pub mod rng;
 pub mod skeleton;
 
+pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use error::{Error, Result};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
+pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
