@@ -10,6 +10,7 @@ pub mod math;
 pub mod mesh;
 pub mod pose;
 pub mod rng;
+pub mod sdf;
 pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
@@ -18,4 +19,5 @@ pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
+pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
