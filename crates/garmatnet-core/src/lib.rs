@@ -9,6 +9,7 @@ pub mod error;
 pub mod math;
 pub mod mesh;
 pub mod pose;
+pub mod render;
 pub mod rng;
 pub mod sdf;
 pub mod skeleton;
