@@ -6,6 +6,8 @@
 
 pub mod anchor;
 pub mod error;
+pub mod material;
+pub mod material_presets;
 pub mod math;
 pub mod mesh;
 pub mod pose;
@@ -15,6 +17,8 @@ pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use error::{Error, Result};
+pub use material::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, Material, MaterialBounds};
+pub use material_presets::{PAPER_TEST_MATERIALS, Preset, find_preset, preset_names, presets};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
