@@ -27,6 +27,19 @@
 //! linear in these coordinates, hence geometric in physical units.
 //!
 //! The named fabrics live in [`crate::material_presets`].
+//!
+//! ```
+//! use garmatnet_core::Material;
+//!
+//! let satin: Material = "silk_duchess_satin".parse()?;
+//! let custom: Material = "1200,900,0.5,0.4,12,0.09".parse()?;
+//! let n = satin.to_normalized(); // what the networks see, in [0, 1]^6
+//! let back = Material::from_normalized(n)?;
+//! assert!((back.shear - satin.shear).abs() < 1e-9 * satin.shear);
+//! let blend = Material::lerp(&satin, &custom, 0.5)?; // geometric mean of each value
+//! assert!((blend.density - (satin.density * custom.density).sqrt()).abs() < 1e-12);
+//! # Ok::<(), garmatnet_core::Error>(())
+//! ```
 
 use std::fmt;
 use std::str::FromStr;
@@ -34,71 +47,8 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::material_bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, MaterialBounds};
 use crate::math::Real;
-
-/// The number of material parameters (the length of ω).
-pub const MATERIAL_DIM: usize = 6;
-
-/// The field names of the components, in ω's order.
-pub const COMPONENT_NAMES: [&str; MATERIAL_DIM] = [
-    "structural_vertical",
-    "structural_horizontal",
-    "flexion_vertical",
-    "flexion_horizontal",
-    "shear",
-    "density",
-];
-
-/// The physical unit of each component, in ω's order.
-pub const COMPONENT_UNITS: [&str; MATERIAL_DIM] = ["N/m", "N/m", "N/m", "N/m", "N/m", "kg/m^2"];
-
-/// Smallest structural (stretch) stiffness in the network's range, N/m (a very loose knit).
-pub const STRUCTURAL_MIN: Real = 10.0;
-/// Largest structural stiffness, N/m (fused interfacing, heavy leather).
-pub const STRUCTURAL_MAX: Real = 20_000.0;
-/// Smallest flexion (bending) stiffness, N/m (chiffon, tulle).
-pub const FLEXION_MIN: Real = 0.01;
-/// Largest flexion stiffness, N/m (rigid trims).
-pub const FLEXION_MAX: Real = 2_000.0;
-/// Smallest shear stiffness, N/m (open meshes shear almost freely).
-pub const SHEAR_MIN: Real = 1.0;
-/// Largest shear stiffness, N/m (isotropic sheets such as leather and fused trims).
-pub const SHEAR_MAX: Real = 20_000.0;
-/// Smallest areal density, kg/m^2 (20 g/m^2, lighter than tulle).
-pub const DENSITY_MIN: Real = 0.02;
-/// Largest areal density, kg/m^2 (1 kg/m^2, thick cowhide or neoprene).
-pub const DENSITY_MAX: Real = 1.0;
-
-/// Per-component bounds of the material space, in ω's order and physical units.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MaterialBounds {
-    /// Lower bounds (N/m for the five stiffnesses, kg/m^2 for density).
-    pub min: [Real; MATERIAL_DIM],
-    /// Upper bounds, same units.
-    pub max: [Real; MATERIAL_DIM],
-}
-
-impl MaterialBounds {
-    /// The bounds of the network's material space (see the table in the module docs).
-    pub const STANDARD: MaterialBounds = MaterialBounds {
-        min: [
-            STRUCTURAL_MIN,
-            STRUCTURAL_MIN,
-            FLEXION_MIN,
-            FLEXION_MIN,
-            SHEAR_MIN,
-            DENSITY_MIN,
-        ],
-        max: [
-            STRUCTURAL_MAX,
-            STRUCTURAL_MAX,
-            FLEXION_MAX,
-            FLEXION_MAX,
-            SHEAR_MAX,
-            DENSITY_MAX,
-        ],
-    };
-}
 
 /// A fabric in the mass-spring material space ω, in physical units.
 ///
@@ -477,6 +427,7 @@ impl FromStr for Material {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material_bounds::*;
     use approx::assert_relative_eq;
     use proptest::prelude::*;
 

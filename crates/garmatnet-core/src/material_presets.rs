@@ -184,7 +184,7 @@ fn levenshtein(a: &[char], b: &[char]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::MATERIAL_DIM;
+    use crate::material_bounds::MATERIAL_DIM;
 
     #[test]
     fn library_is_large_and_names_are_unique() {
