@@ -6,6 +6,9 @@
 
 pub mod anchor;
 pub mod error;
+pub mod material;
+pub mod material_bounds;
+pub mod material_presets;
 pub mod math;
 pub mod mesh;
 pub mod pose;
@@ -16,6 +19,9 @@ pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use error::{Error, Result};
+pub use material::Material;
+pub use material_bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, MaterialBounds};
+pub use material_presets::{PAPER_TEST_MATERIALS, Preset, find_preset, preset_names, presets};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
