@@ -5,7 +5,9 @@
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
 pub mod anchor;
+pub mod decompose;
 pub mod error;
+pub mod io;
 pub mod math;
 pub mod mesh;
 pub mod pose;
@@ -14,9 +16,11 @@ pub mod sdf;
 pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
+pub use decompose::{decompose, field_from_frame, field_to_frame, recompose, Decomposition};
 pub use error::{Error, Result};
+pub use io::{read_obj, write_atomic, write_obj, write_ply};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
-pub use mesh::TriMesh;
+pub use mesh::{Aabb, Adjacency, TriMesh};
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
