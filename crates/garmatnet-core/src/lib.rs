@@ -8,6 +8,7 @@ pub mod anchor;
 pub mod decompose;
 pub mod error;
 pub mod io;
+pub mod laplacian;
 pub mod math;
 pub mod mesh;
 pub mod pose;
@@ -19,6 +20,9 @@ pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use decompose::{decompose, field_from_frame, field_to_frame, recompose, Decomposition};
 pub use error::{Error, Result};
 pub use io::{read_obj, write_atomic, write_obj, write_ply};
+pub use laplacian::{
+    LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole, CORNER_ANGLE_DEGREES,
+};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::{Aabb, Adjacency, TriMesh};
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
