@@ -32,6 +32,15 @@ use crate::mesh::TriMesh;
 /// directory); the data is not `fsync`ed, so this protects against failing processes, not
 /// against power loss.
 ///
+/// ```
+/// use std::io::Write;
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("report.txt");
+/// garmatnet_core::write_atomic(&path, |w| writeln!(w, "mean error: {} mm", 12.5))?;
+/// assert_eq!(std::fs::read_to_string(&path)?, "mean error: 12.5 mm\n");
+/// # Ok::<(), anyhow::Error>(())
+/// ```
+///
 /// # Errors
 /// [`Error::Io`] naming the directory if the temporary file cannot be created, or `path` if
 /// `write` fails or the rename does. On any error nothing is left at `path` that was not

@@ -117,6 +117,20 @@ pub enum VertexRole {
 /// vertices their two loop neighbours, fixed vertices nothing. Smoothing allocates the
 /// output, one scratch buffer and (cotangent weights only) one weight per table entry per
 /// call, nothing per iteration.
+///
+/// ```
+/// use garmatnet_core::{LaplacianSmoother, SmoothingSettings, TriMesh, Vec3};
+/// // A fan of four triangles around a centre vertex lifted 1 cm out of the plane.
+/// let rim = [(0.1, 0.0), (0.0, 0.1), (-0.1, 0.0), (0.0, -0.1)];
+/// let mut vertices = vec![Vec3::new(0.0, 0.0, 0.01)];
+/// vertices.extend(rim.iter().map(|&(x, y)| Vec3::new(x, y, 0.0)));
+/// let mesh = TriMesh::new(vertices, vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])?;
+/// let smoother = LaplacianSmoother::new(&mesh, SmoothingSettings::default())?;
+/// let smoothed = smoother.smooth(&mesh.vertices)?;
+/// assert!(smoothed[0].z < 1e-6); // the bump is gone (0.85^80 of it is left)
+/// assert_eq!(&smoothed[1..], &mesh.vertices[1..]); // the square's rim: four fixed corners
+/// # Ok::<(), garmatnet_core::Error>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct LaplacianSmoother {
     settings: SmoothingSettings,
