@@ -5,7 +5,10 @@
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
 pub mod anchor;
+pub mod decompose;
 pub mod error;
+pub mod io;
+pub mod laplacian;
 pub mod material;
 pub mod material_bounds;
 pub mod material_presets;
@@ -18,13 +21,18 @@ pub mod sdf;
 pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
+pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
+pub use io::{read_obj, write_atomic, write_obj, write_ply};
+pub use laplacian::{
+    CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,
+};
 pub use material::Material;
 pub use material_bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, MaterialBounds};
 pub use material_presets::{PAPER_TEST_MATERIALS, Preset, find_preset, preset_names, presets};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
-pub use mesh::TriMesh;
-pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
+pub use mesh::{Aabb, Adjacency, TriMesh};
+pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
-pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
+pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};

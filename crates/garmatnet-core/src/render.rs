@@ -38,7 +38,12 @@ impl Camera {
         let fov_y: Real = 0.5;
         let distance = radius * 1.08 / (fov_y * 0.5).tan();
         let dir = Vec3::new(yaw.sin(), 0.0, yaw.cos());
-        Self { eye: centre + dir * distance, target: centre, up: Vec3::y(), fov_y }
+        Self {
+            eye: centre + dir * distance,
+            target: centre,
+            up: Vec3::y(),
+            fov_y,
+        }
     }
 }
 
@@ -100,7 +105,11 @@ pub const GARMENT_COLOR: Color = [70, 110, 170];
 /// # Errors
 /// [`Error::InvalidArgument`] for a zero-sized image or supersampling factor, and
 /// [`Error::Mismatch`] when a per-vertex colour list does not match its mesh.
-pub fn render(items: &[RenderItem<'_>], camera: &Camera, settings: &RenderSettings) -> Result<RgbImage> {
+pub fn render(
+    items: &[RenderItem<'_>],
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> Result<RgbImage> {
     let ss = settings.supersample;
     if settings.width == 0 || settings.height == 0 || ss == 0 || ss > 8 {
         return Err(Error::InvalidArgument(format!(
@@ -109,14 +118,14 @@ pub fn render(items: &[RenderItem<'_>], camera: &Camera, settings: &RenderSettin
         )));
     }
     for item in items {
-        if let Shading::PerVertex(c) = item.shading {
-            if c.len() != item.mesh.vertex_count() {
-                return Err(Error::Mismatch {
-                    what: "per-vertex colours".into(),
-                    expected: format!("{} (one per mesh vertex)", item.mesh.vertex_count()),
-                    got: c.len().to_string(),
-                });
-            }
+        if let Shading::PerVertex(c) = item.shading
+            && c.len() != item.mesh.vertex_count()
+        {
+            return Err(Error::Mismatch {
+                what: "per-vertex colours".into(),
+                expected: format!("{} (one per mesh vertex)", item.mesh.vertex_count()),
+                got: c.len().to_string(),
+            });
         }
     }
     let (w, h) = (settings.width * ss, settings.height * ss);
@@ -216,7 +225,10 @@ fn vertex_normals(mesh: &TriMesh) -> Vec<Vec3> {
             normals[i] += n;
         }
     }
-    normals.iter().map(|n| n.try_normalize(1e-20).unwrap_or_else(Vec3::z)).collect()
+    normals
+        .iter()
+        .map(|n| n.try_normalize(1e-20).unwrap_or_else(Vec3::z))
+        .collect()
 }
 
 /// A perceptually ordered blue → cyan → yellow → red colour for `t` in [0, 1] (clamped;
@@ -234,7 +246,11 @@ pub fn heat_color(t: Real) -> Color {
         (1.0, [200.0, 30.0, 30.0]),
     ];
     let t = t.clamp(0.0, 1.0);
-    let i = STOPS.iter().rposition(|(s, _)| *s <= t).unwrap_or(0).min(STOPS.len() - 2);
+    let i = STOPS
+        .iter()
+        .rposition(|(s, _)| *s <= t)
+        .unwrap_or(0)
+        .min(STOPS.len() - 2);
     let (s0, c0) = STOPS[i];
     let (s1, c1) = STOPS[i + 1];
     let u = (t - s0) / (s1 - s0);
@@ -269,10 +285,16 @@ pub fn side_by_side(images: &[RgbImage], background: Color) -> RgbImage {
 /// # Errors
 /// [`Error::Io`] if the directory is missing or not writable.
 pub fn save_png(path: &Path, image: &RgbImage) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(dir, e))?;
     image
-        .write_to(&mut std::io::BufWriter::new(tmp.as_file()), image::ImageFormat::Png)
+        .write_to(
+            &mut std::io::BufWriter::new(tmp.as_file()),
+            image::ImageFormat::Png,
+        )
         .map_err(|e| Error::io(path, std::io::Error::other(e)))?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
@@ -293,25 +315,51 @@ mod tests {
     }
 
     fn settings() -> RenderSettings {
-        RenderSettings { width: 64, height: 64, supersample: 1, ..RenderSettings::default() }
+        RenderSettings {
+            width: 64,
+            height: 64,
+            supersample: 1,
+            ..RenderSettings::default()
+        }
     }
 
     #[test]
     fn nearer_surface_wins_the_depth_test() {
         let far = quad(0.0, 1.0);
         let near = quad(0.5, 0.3);
-        let cam = Camera { eye: Vec3::new(0.0, 0.0, 3.0), target: Vec3::zeros(), up: Vec3::y(), fov_y: 1.0 };
-        let red = RenderItem { mesh: &near, shading: Shading::Uniform([255, 0, 0]) };
-        let blue = RenderItem { mesh: &far, shading: Shading::Uniform([0, 0, 255]) };
+        let cam = Camera {
+            eye: Vec3::new(0.0, 0.0, 3.0),
+            target: Vec3::zeros(),
+            up: Vec3::y(),
+            fov_y: 1.0,
+        };
+        let red = RenderItem {
+            mesh: &near,
+            shading: Shading::Uniform([255, 0, 0]),
+        };
+        let blue = RenderItem {
+            mesh: &far,
+            shading: Shading::Uniform([0, 0, 255]),
+        };
         // Draw order must not matter.
         for items in [[red, blue], [blue, red]] {
             let img = render(&items, &cam, &settings()).unwrap();
             let centre = img.get_pixel(32, 32);
-            assert!(centre[0] > 0 && centre[2] == 0, "centre should be the near red quad: {centre:?}");
+            assert!(
+                centre[0] > 0 && centre[2] == 0,
+                "centre should be the near red quad: {centre:?}"
+            );
             let edge = img.get_pixel(16, 32);
-            assert!(edge[2] > 0 && edge[0] == 0, "edge should be the far blue quad: {edge:?}");
+            assert!(
+                edge[2] > 0 && edge[0] == 0,
+                "edge should be the far blue quad: {edge:?}"
+            );
             let corner = img.get_pixel(0, 0);
-            assert_eq!(corner.0, settings().background, "outside both quads is background");
+            assert_eq!(
+                corner.0,
+                settings().background,
+                "outside both quads is background"
+            );
         }
     }
 
@@ -320,14 +368,29 @@ mod tests {
         let q = quad(0.0, 1.0);
         let cam = Camera::framing(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), 0.3);
         let colors = heat_colors(&[0.0, 0.3, 0.6, 1.0], 1.0);
-        let item = RenderItem { mesh: &q, shading: Shading::PerVertex(&colors) };
+        let item = RenderItem {
+            mesh: &q,
+            shading: Shading::PerVertex(&colors),
+        };
         let a = render(&[item], &cam, &RenderSettings::default()).unwrap();
         let b = render(&[item], &cam, &RenderSettings::default()).unwrap();
         assert_eq!(a, b);
-        let bad = RenderItem { mesh: &q, shading: Shading::PerVertex(&colors[..2]) };
-        assert!(matches!(render(&[bad], &cam, &settings()), Err(Error::Mismatch { .. })));
-        let zero = RenderSettings { width: 0, ..settings() };
-        assert!(matches!(render(&[item], &cam, &zero), Err(Error::InvalidArgument(_))));
+        let bad = RenderItem {
+            mesh: &q,
+            shading: Shading::PerVertex(&colors[..2]),
+        };
+        assert!(matches!(
+            render(&[bad], &cam, &settings()),
+            Err(Error::Mismatch { .. })
+        ));
+        let zero = RenderSettings {
+            width: 0,
+            ..settings()
+        };
+        assert!(matches!(
+            render(&[item], &cam, &zero),
+            Err(Error::InvalidArgument(_))
+        ));
     }
 
     #[test]
@@ -350,6 +413,10 @@ mod tests {
         assert_eq!(back, img);
         let missing = dir.path().join("no/such/dir/x.png");
         assert!(matches!(save_png(&missing, &img), Err(Error::Io { .. })));
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temp files left behind");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp files left behind"
+        );
     }
 }
