@@ -5,6 +5,8 @@
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
 pub mod anchor;
+pub mod capsule;
+pub mod capsule_body;
 pub mod error;
 pub mod math;
 pub mod mesh;
@@ -12,8 +14,14 @@ pub mod pose;
 pub mod rng;
 pub mod sdf;
 pub mod skeleton;
+pub mod smpl_capsules;
+pub mod surface_nets;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
+pub use capsule::Capsule;
+pub use capsule_body::{
+    CapsuleBody, PosedBody, DEFAULT_BLEND_RADIUS, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
+};
 pub use error::{Error, Result};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
@@ -21,3 +29,5 @@ pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
+pub use smpl_capsules::smpl_neutral_capsules;
+pub use surface_nets::surface_nets;
