@@ -48,6 +48,18 @@ struct Shared {
 ///
 /// A [`SignedDistance`] (the rest surface) and a [`SkinnedBody`]; [`CapsuleBody::pose`]
 /// gives the posed surface. Cloning is cheap (shared data).
+///
+/// The field is the exact distance away from blends; within `blend_radius` of two capsules'
+/// meeting it is a distance bound (1-Lipschitz, gradient shorter than one before
+/// normalisation), so [`SignedDistance::project`] may need a second step there.
+///
+/// ```
+/// use garmatnet_core::{CapsuleBody, Pose, SignedDistance, Vec3};
+/// let body = CapsuleBody::smpl_neutral();
+/// assert!(body.distance(&Vec3::zeros()) < 0.0); // the chest, inside
+/// let posed = body.pose(&Pose::zero());
+/// assert!(posed.distance(&Vec3::new(0.0, 0.0, 1.0)) > 0.5); // a metre in front
+/// ```
 #[derive(Debug, Clone)]
 pub struct CapsuleBody {
     shared: Arc<Shared>,
@@ -368,23 +380,39 @@ mod tests {
         assert!(b.distance(&Vec3::new(1.5, 0.2, 0.0)) > 0.5);
     }
 
+    fn assert_gradient_matches_finite_differences(sdf: &dyn SignedDistance, p: &Vec3) {
+        let h = 1e-6;
+        let (_, g) = sdf.distance_and_gradient(p);
+        assert_relative_eq!(g.norm(), 1.0, epsilon = 1e-12);
+        let fd = Vec3::from_fn(|i, _| {
+            let e = Vec3::ith(i, h);
+            (sdf.distance(&(p + e)) - sdf.distance(&(p - e))) / (2.0 * h)
+        });
+        assert!(
+            (g - fd.normalize()).norm() < 1e-3,
+            "at {p:?}: {g:?} vs {fd:?}"
+        );
+        // A smooth union is 1-Lipschitz: never steeper than a distance.
+        assert!(fd.norm() <= 1.0 + 1e-6, "|fd| = {}", fd.norm());
+    }
+
     #[test]
     fn gradient_is_unit_and_matches_finite_differences() {
-        let b = body();
-        let h = 1e-6;
         for p in points_near_surface(300, 7) {
-            let (_, g) = b.distance_and_gradient(&p);
-            assert_relative_eq!(g.norm(), 1.0, epsilon = 1e-12);
-            let fd = Vec3::from_fn(|i, _| {
-                let e = Vec3::ith(i, h);
-                (b.distance(&(p + e)) - b.distance(&(p - e))) / (2.0 * h)
-            });
-            assert!(
-                (g - fd.normalize()).norm() < 1e-3,
-                "at {p:?}: {g:?} vs {fd:?}"
-            );
-            // A smooth union is 1-Lipschitz: never steeper than a distance.
-            assert!(fd.norm() <= 1.0 + 1e-6, "|fd| = {}", fd.norm());
+            assert_gradient_matches_finite_differences(body(), &p);
+        }
+        let mut pose = Pose::zero();
+        pose.set_joint(
+            joint_index("left_shoulder").unwrap(),
+            Vec3::new(0.3, -0.4, -0.9),
+        );
+        pose.set_joint(joint_index("spine2").unwrap(), Vec3::new(0.3, 0.2, 0.0));
+        let posed = body().pose(&pose);
+        for p in points_near_surface(300, 8) {
+            // Outside the posed surface the field is smooth (the medial axis is inside).
+            if posed.distance(&p) > 0.002 {
+                assert_gradient_matches_finite_differences(&posed, &p);
+            }
         }
     }
 
