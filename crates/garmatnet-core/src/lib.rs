@@ -5,6 +5,8 @@
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
 pub mod anchor;
+pub mod capsule;
+pub mod capsule_body;
 pub mod decompose;
 pub mod error;
 pub mod io;
@@ -19,8 +21,14 @@ pub mod render;
 pub mod rng;
 pub mod sdf;
 pub mod skeleton;
+pub mod smpl_capsules;
+pub mod surface_nets;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
+pub use capsule::Capsule;
+pub use capsule_body::{
+    CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
+};
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use io::{read_obj, write_atomic, write_obj, write_ply};
@@ -36,3 +44,5 @@ pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
+pub use smpl_capsules::smpl_neutral_capsules;
+pub use surface_nets::surface_nets;
