@@ -5,19 +5,23 @@
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
 pub mod anchor;
+pub mod atomic_file;
 pub mod error;
 pub mod math;
 pub mod mesh;
 pub mod pose;
+pub mod pose_file;
 pub mod rng;
 pub mod sdf;
 pub mod skeleton;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
+pub use atomic_file::write_atomic;
 pub use error::{Error, Result};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
+pub use pose_file::{read_poses, write_poses_json};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
