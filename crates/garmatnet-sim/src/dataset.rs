@@ -44,10 +44,10 @@ use std::time::{Duration, Instant};
 use garmatnet_core::{Error, Result};
 
 use crate::manifest::{
-    manifest_path, parse_sample_stem, sample_stem, DatasetSpec, Manifest, SampleRecord,
-    SampleStats, DATASET_FORMAT_VERSION,
+    DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
+    parse_sample_stem, sample_stem,
 };
-use crate::sample_arrays::{write_points_npy, SampleArrays};
+use crate::sample_arrays::{SampleArrays, write_points_npy};
 
 /// How often at most [`DatasetWriter::write_sample`] rewrites `manifest.json` (the markers
 /// are the truth, so a stale list costs nothing but is rebuilt on the next open).
@@ -82,7 +82,9 @@ pub fn scan_samples(dir: &Path, spec: &DatasetSpec) -> Result<Vec<SampleRecord>>
     for entry in entries {
         let entry = entry.map_err(|e| Error::io(&root, e))?;
         let name = entry.file_name();
-        let Some((material, pose)) = name.to_str().and_then(parse_sample_stem) else { continue };
+        let Some((material, pose)) = name.to_str().and_then(parse_sample_stem) else {
+            continue;
+        };
         let stem = sample_stem(material, pose);
         let marker = marker_path(dir, &stem);
         let bytes = match std::fs::read(&marker) {
@@ -90,7 +92,11 @@ pub fn scan_samples(dir: &Path, spec: &DatasetSpec) -> Result<Vec<SampleRecord>>
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
             Err(e) => return Err(Error::io(&marker, e)),
         };
-        let parse = |message: String| Error::Parse { path: marker.clone(), line: None, message };
+        let parse = |message: String| Error::Parse {
+            path: marker.clone(),
+            line: None,
+            message,
+        };
         let record: SampleRecord = serde_json::from_slice(&bytes)
             .map_err(|e| parse(format!("sample {stem}: malformed completion marker: {e}")))?;
         if (record.material, record.pose) != (material, pose) || record.stem != stem {
@@ -145,9 +151,13 @@ impl Shard {
     /// # Errors
     /// [`Error::InvalidArgument`] for anything but two integers with `i < k`.
     pub fn parse(text: &str) -> Result<Self> {
-        let bad = || Error::InvalidArgument(format!("shard `{text}` is not of the form i/k, e.g. 0/4"));
+        let bad =
+            || Error::InvalidArgument(format!("shard `{text}` is not of the form i/k, e.g. 0/4"));
         let (i, k) = text.split_once('/').ok_or_else(bad)?;
-        Self::new(i.trim().parse().map_err(|_| bad())?, k.trim().parse().map_err(|_| bad())?)
+        Self::new(
+            i.trim().parse().map_err(|_| bad())?,
+            k.trim().parse().map_err(|_| bad())?,
+        )
     }
 
     /// Whether this shard computes the samples of `material`.
@@ -209,7 +219,8 @@ impl DatasetWriter {
         }
         // Compare through JSON so that floats parsed back from the manifest compare exactly.
         let spec_json = serde_json::to_value(&spec).map_err(|e| Error::io(&dir, e.into()))?;
-        let spec: DatasetSpec = serde_json::from_value(spec_json).map_err(|e| Error::io(&dir, e.into()))?;
+        let spec: DatasetSpec =
+            serde_json::from_value(spec_json).map_err(|e| Error::io(&dir, e.into()))?;
         if manifest_path(&dir).exists() {
             let existing = Manifest::read(&dir)?;
             ensure_same_spec(&existing.spec, &spec)?;
@@ -219,7 +230,10 @@ impl DatasetWriter {
             dir,
             spec,
             state: Mutex::new(WriterState {
-                done: records.into_iter().map(|r| ((r.material, r.pose), r)).collect(),
+                done: records
+                    .into_iter()
+                    .map(|r| ((r.material, r.pose), r))
+                    .collect(),
                 last_manifest: Instant::now(),
                 dirty: true,
             }),
@@ -279,7 +293,12 @@ impl DatasetWriter {
             )));
         }
         let stem = sample_stem(material, pose);
-        let numbers = [stats.residual, stats.max_penetration_m, stats.max_strain, stats.wall_time_ms];
+        let numbers = [
+            stats.residual,
+            stats.max_penetration_m,
+            stats.max_strain,
+            stats.wall_time_ms,
+        ];
         if numbers.iter().any(|v| !v.is_finite()) {
             return Err(Error::InvalidArgument(format!(
                 "sample {stem}: solver stats must be finite, got {stats:?}"
@@ -291,13 +310,20 @@ impl DatasetWriter {
         // A rewrite must not leave the old marker vouching for half-replaced arrays.
         let marker = marker_path(&self.dir, &stem);
         match std::fs::remove_file(&marker) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::io(&marker, e)),
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(Error::io(&marker, e));
+            }
             _ => {}
         }
         for (name, points) in arrays.by_name() {
             write_points_npy(&sample_dir.join(format!("{name}.npy")), points)?;
         }
-        let record = SampleRecord { material, pose, stem, stats };
+        let record = SampleRecord {
+            material,
+            pose,
+            stem,
+            stats,
+        };
         let bytes = serde_json::to_vec_pretty(&record).map_err(|e| Error::io(&marker, e.into()))?;
         garmatnet_core::write_atomic(&marker, &bytes)?;
 
@@ -316,7 +342,11 @@ impl DatasetWriter {
     /// [`Error::Io`] if it cannot be written.
     pub fn flush(&self) -> Result<()> {
         let mut state = self.lock_state();
-        if state.dirty { self.write_manifest(&mut state) } else { Ok(()) }
+        if state.dirty {
+            self.write_manifest(&mut state)
+        } else {
+            Ok(())
+        }
     }
 
     fn write_manifest(&self, state: &mut WriterState) -> Result<()> {
@@ -334,7 +364,9 @@ impl DatasetWriter {
     fn lock_state(&self) -> std::sync::MutexGuard<'_, WriterState> {
         // A panic in another writer thread cannot leave the map inconsistent (each insert
         // is one call), so a poisoned lock is still usable.
-        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+        self.state
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 }
 
@@ -352,30 +384,58 @@ fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Result<()> {
         got,
     };
     if existing.template != new.template {
-        return Err(differs("template", format!("{:?}", existing.template), format!("{:?}", new.template)));
+        return Err(differs(
+            "template",
+            format!("{:?}", existing.template),
+            format!("{:?}", new.template),
+        ));
     }
     if existing.body != new.body {
-        return Err(differs("body", existing.body.name.clone(), new.body.name.clone()));
+        return Err(differs(
+            "body",
+            existing.body.name.clone(),
+            new.body.name.clone(),
+        ));
     }
-    let names = |s: &DatasetSpec| s.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>().join(", ");
+    let names = |s: &DatasetSpec| {
+        s.materials
+            .iter()
+            .map(|m| m.name.clone())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     if existing.materials != new.materials {
         return Err(differs("materials", names(existing), names(new)));
     }
     if existing.poses != new.poses || existing.frames != new.frames {
         let first = (0..existing.poses.len().max(new.poses.len()))
-            .find(|&i| existing.poses.get(i) != new.poses.get(i) || existing.frames.get(i) != new.frames.get(i))
+            .find(|&i| {
+                existing.poses.get(i) != new.poses.get(i)
+                    || existing.frames.get(i) != new.frames.get(i)
+            })
             .unwrap_or(0);
         return Err(differs(
             "poses",
             format!("{} poses", existing.poses.len()),
-            format!("{} poses, first difference at pose {first}", new.poses.len()),
+            format!(
+                "{} poses, first difference at pose {first}",
+                new.poses.len()
+            ),
         ));
     }
     if existing.solver != new.solver {
-        return Err(differs("solver settings", existing.solver.to_string(), new.solver.to_string()));
+        return Err(differs(
+            "solver settings",
+            existing.solver.to_string(),
+            new.solver.to_string(),
+        ));
     }
     if existing.smoothing != new.smoothing {
-        return Err(differs("smoothing", format!("{:?}", existing.smoothing), format!("{:?}", new.smoothing)));
+        return Err(differs(
+            "smoothing",
+            format!("{:?}", existing.smoothing),
+            format!("{:?}", new.smoothing),
+        ));
     }
     Ok(())
 }
@@ -387,7 +447,11 @@ fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Result<()> {
 /// # Errors
 /// As [`DatasetWriter::open`] for `dest` and each source's manifest (a source with a
 /// different spec is refused before anything is copied); [`Error::Io`] if copying fails.
-pub fn merge_shards(dest: impl AsRef<Path>, sources: &[PathBuf], spec: DatasetSpec) -> Result<usize> {
+pub fn merge_shards(
+    dest: impl AsRef<Path>,
+    sources: &[PathBuf],
+    spec: DatasetSpec,
+) -> Result<usize> {
     let dest = dest.as_ref();
     let writer = DatasetWriter::open(dest, spec)?;
     let mut plans = Vec::new();
@@ -403,12 +467,15 @@ pub fn merge_shards(dest: impl AsRef<Path>, sources: &[PathBuf], spec: DatasetSp
             let to = samples_dir(dest).join(&record.stem);
             std::fs::create_dir_all(&to).map_err(|e| Error::io(&to, e))?;
             match std::fs::remove_file(to.join("stats.json")) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::io(&to, e)),
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(Error::io(&to, e));
+                }
                 _ => {}
             }
             // Marker last, through a rename, as the writer does.
             for name in ["simulated.npy", "smoothed.npy", "body.npy", "stats.json"] {
-                let bytes = std::fs::read(from.join(name)).map_err(|e| Error::io(from.join(name), e))?;
+                let bytes =
+                    std::fs::read(from.join(name)).map_err(|e| Error::io(from.join(name), e))?;
                 garmatnet_core::write_atomic(&to.join(name), &bytes)?;
             }
             copied += 1;

@@ -144,7 +144,11 @@ impl DatasetSpec {
                     m.name
                 )));
             }
-            if m.omega.iter().chain(&m.omega_normalized).any(|v| !v.is_finite()) {
+            if m.omega
+                .iter()
+                .chain(&m.omega_normalized)
+                .any(|v| !v.is_finite())
+            {
                 return Err(Error::InvalidArgument(format!(
                     "material `{}` has a non-finite parameter",
                     m.name
@@ -164,10 +168,16 @@ impl Manifest {
     pub fn read(dir: &Path) -> Result<Self> {
         let path = manifest_path(dir);
         let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-        let parse = |line, message| Error::Parse { path: path.clone(), line, message };
+        let parse = |line, message| Error::Parse {
+            path: path.clone(),
+            line,
+            message,
+        };
         let version: serde_json::Value = serde_json::from_slice(&bytes)
             .map_err(|e| parse(Some(e.line()), format!("not valid JSON: {e}")))?;
-        let found = version.get("format_version").and_then(serde_json::Value::as_u64);
+        let found = version
+            .get("format_version")
+            .and_then(serde_json::Value::as_u64);
         if found != Some(u64::from(DATASET_FORMAT_VERSION)) {
             return Err(parse(
                 None,
@@ -179,7 +189,10 @@ impl Manifest {
         }
         let manifest: Manifest = serde_json::from_value(version)
             .map_err(|e| parse(None, format!("not a garmatnet dataset manifest: {e}")))?;
-        manifest.spec.validate().map_err(|e| parse(None, e.to_string()))?;
+        manifest
+            .spec
+            .validate()
+            .map_err(|e| parse(None, e.to_string()))?;
         Ok(manifest)
     }
 
@@ -228,8 +241,18 @@ mod tests {
     fn stems_round_trip_and_reject_variants() {
         assert_eq!(sample_stem(3, 123), "m003_p0123");
         assert_eq!(parse_sample_stem("m003_p0123"), Some((3, 123)));
-        assert_eq!(parse_sample_stem(&sample_stem(1234, 56789)), Some((1234, 56789)));
-        for bad in ["m3_p123", "m003_p0123.tmp", "x003_p0123", "m003p0123", "m_p", "m-01_p0001"] {
+        assert_eq!(
+            parse_sample_stem(&sample_stem(1234, 56789)),
+            Some((1234, 56789))
+        );
+        for bad in [
+            "m3_p123",
+            "m003_p0123.tmp",
+            "x003_p0123",
+            "m003p0123",
+            "m_p",
+            "m-01_p0001",
+        ] {
             assert_eq!(parse_sample_stem(bad), None, "{bad}");
         }
     }

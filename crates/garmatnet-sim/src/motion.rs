@@ -13,7 +13,7 @@
 //! clamped into the limits, which can only shorten steps.
 
 use garmatnet_core::{
-    Error, JointLimits, Pose, Real, Result, SplitMix64, Vec3, JOINT_COUNT, JOINT_NAMES, POSE_DIM,
+    Error, JOINT_COUNT, JOINT_NAMES, JointLimits, POSE_DIM, Pose, Real, Result, SplitMix64, Vec3,
 };
 
 /// What a keyframe emphasises; the other joints keep small background motion.
@@ -150,12 +150,16 @@ impl MotionGenerator {
         // Speed scales like 1/duration: lengthen each too-fast segment until all steps fit.
         for _ in 0..64 {
             let times = knot_times(&durations);
-            let mut violated = false;
+            let mut fastest = vec![0.0; durations.len()];
             for t in 1..self.frames {
+                let segment = segment_of(&times, t as Real - 0.5);
                 let step = max_joint_step(&frames[t - 1], &frames[t]);
+                fastest[segment] = Real::max(fastest[segment], step);
+            }
+            let mut violated = false;
+            for (duration, step) in durations.iter_mut().zip(fastest) {
                 if step > max_step {
-                    let segment = segment_of(&times, t as Real - 0.5);
-                    durations[segment] *= (step / max_step * 1.05).min(3.0);
+                    *duration *= step / max_step * 1.02;
                     violated = true;
                 }
             }
@@ -175,7 +179,9 @@ impl MotionGenerator {
 
     /// One keyframe: background motion of every joint plus one or two themes at full range.
     fn keyframe(&self, rng: &mut SplitMix64) -> [Real; POSE_DIM] {
-        let background = self.limits.sample(rng, self.background_amplitude.clamp(0.0, 1.0));
+        let background = self
+            .limits
+            .sample(rng, self.background_amplitude.clamp(0.0, 1.0));
         let background = background.to_vec();
         let mut values: [Real; POSE_DIM] = std::array::from_fn(|i| background[i]);
         let primary = MotionTheme::ALL[rng.below(MotionTheme::ALL.len())];
@@ -183,7 +189,9 @@ impl MotionGenerator {
         let amplitude = self.amplitude.clamp(0.0, 1.0);
         for theme in std::iter::once(primary).chain(secondary) {
             for (name, mask) in theme.joints() {
-                let Some(j) = JOINT_NAMES.iter().position(|n| n == name) else { continue };
+                let Some(j) = JOINT_NAMES.iter().position(|n| n == name) else {
+                    continue;
+                };
                 for c in 0..3 {
                     if mask[c] {
                         let (lo, hi) = (self.limits.min[j][c], self.limits.max[j][c]);
@@ -210,7 +218,10 @@ fn knot_times(durations: &[Real]) -> Vec<Real> {
 }
 
 fn segment_of(times: &[Real], t: Real) -> usize {
-    times.partition_point(|&k| k <= t).saturating_sub(1).min(times.len() - 2)
+    times
+        .partition_point(|&k| k <= t)
+        .saturating_sub(1)
+        .min(times.len() - 2)
 }
 
 /// Samples the cubic Hermite spline through `keys` (at knot times from `durations`) at
@@ -249,7 +260,11 @@ fn evaluate(keys: &[[Real; POSE_DIM]], durations: &[Real], frames: usize) -> Vec
 fn max_joint_step(a: &[Real; POSE_DIM], b: &[Real; POSE_DIM]) -> Real {
     (0..JOINT_COUNT)
         .map(|j| {
-            let d = Vec3::new(a[3 * j] - b[3 * j], a[3 * j + 1] - b[3 * j + 1], a[3 * j + 2] - b[3 * j + 2]);
+            let d = Vec3::new(
+                a[3 * j] - b[3 * j],
+                a[3 * j + 1] - b[3 * j + 1],
+                a[3 * j + 2] - b[3 * j + 2],
+            );
             d.norm()
         })
         .fold(0.0, Real::max)
@@ -270,15 +285,20 @@ fn deviation_weight(joint: usize) -> Real {
 /// torso joints weighted most.
 #[must_use]
 pub fn rest_deviation(pose: &Pose) -> Real {
-    (0..JOINT_COUNT).map(|j| deviation_weight(j) * pose.joint(j).norm()).sum()
+    (0..JOINT_COUNT)
+        .map(|j| deviation_weight(j) * pose.joint(j).norm())
+        .sum()
 }
 
 /// The indices of the `k` poses deviating most from rest ([`rest_deviation`]), most extreme
 /// first (ties by index); all indices if `k >= poses.len()`. Used to stress-test the solver.
 #[must_use]
 pub fn extreme_poses(poses: &[Pose], k: usize) -> Vec<usize> {
-    let mut scored: Vec<(usize, Real)> =
-        poses.iter().enumerate().map(|(i, p)| (i, rest_deviation(p))).collect();
+    let mut scored: Vec<(usize, Real)> = poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i, rest_deviation(p)))
+        .collect();
     scored.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     scored.into_iter().take(k).map(|(i, _)| i).collect()
 }
@@ -298,7 +318,15 @@ pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result
     let total = from.max_joint_angle_to(to);
     // Slerp turns every joint uniformly in t, so n equal steps of t each turn ≤ total / n.
     let n = ((total / max_step_rad).ceil() as usize).max(1);
-    Ok((1..=n).map(|i| if i == n { to.clone() } else { from.slerp(to, i as Real / n as Real) }).collect())
+    Ok((1..=n)
+        .map(|i| {
+            if i == n {
+                to.clone()
+            } else {
+                from.slerp(to, i as Real / n as Real)
+            }
+        })
+        .collect())
 }
 
 #[cfg(test)]
@@ -312,9 +340,14 @@ mod tests {
         let poses = g.generate();
         assert_eq!(poses.len(), 400);
         for (f, p) in poses.iter().enumerate() {
-            g.limits.validate(p, 0.0).unwrap_or_else(|e| panic!("frame {f}: {e}"));
+            g.limits
+                .validate(p, 0.0)
+                .unwrap_or_else(|e| panic!("frame {f}: {e}"));
         }
-        let max_step = poses.windows(2).map(|w| w[0].max_joint_angle_to(&w[1])).fold(0.0, Real::max);
+        let max_step = poses
+            .windows(2)
+            .map(|w| w[0].max_joint_angle_to(&w[1]))
+            .fold(0.0, Real::max);
         assert!(max_step <= g.max_step_rad + 1e-9, "max step {max_step}");
         // The dance is not a crawl: the bound is approached somewhere.
         assert!(max_step > 0.5 * g.max_step_rad, "max step {max_step}");
@@ -324,7 +357,9 @@ mod tests {
     fn seeded_and_bit_identical() {
         let a = MotionGenerator::new(3, 120).generate();
         let b = MotionGenerator::new(3, 120).generate();
-        let bits = |p: &[Pose]| -> Vec<u64> { p.iter().flat_map(Pose::to_vec).map(f64::to_bits).collect() };
+        let bits = |p: &[Pose]| -> Vec<u64> {
+            p.iter().flat_map(Pose::to_vec).map(f64::to_bits).collect()
+        };
         assert_eq!(bits(&a), bits(&b));
         let c = MotionGenerator::new(4, 120).generate();
         assert!(a.iter().zip(&c).any(|(x, y)| x.max_joint_angle_to(y) > 0.1));
@@ -346,8 +381,14 @@ mod tests {
         }
         let min = far.iter().copied().fold(Real::INFINITY, Real::min);
         let mean = far.iter().sum::<Real>() / far.len() as Real;
-        assert!(min > 0.05, "a held-out frame nearly repeats a distant frame: {min} rad");
-        assert!(mean > 0.2, "mean distance to a distant frame only {mean} rad");
+        assert!(
+            min > 0.05,
+            "a held-out frame nearly repeats a distant frame: {min} rad"
+        );
+        assert!(
+            mean > 0.2,
+            "mean distance to a distant frame only {mean} rad"
+        );
     }
 
     #[test]
@@ -355,9 +396,14 @@ mod tests {
         let poses = MotionGenerator::new(5, 600).generate();
         let range = |j: usize, c: usize| {
             let v: Vec<Real> = poses.iter().map(|p| p.joint(j)[c]).collect();
-            v.iter().copied().fold(Real::NEG_INFINITY, Real::max) - v.iter().copied().fold(Real::INFINITY, Real::min)
+            v.iter().copied().fold(Real::NEG_INFINITY, Real::max)
+                - v.iter().copied().fold(Real::INFINITY, Real::min)
         };
-        assert!(range(16, 2) > 1.2, "left shoulder abduction range {}", range(16, 2));
+        assert!(
+            range(16, 2) > 1.2,
+            "left shoulder abduction range {}",
+            range(16, 2)
+        );
         assert!(range(18, 1) > 1.0, "left elbow range {}", range(18, 1));
         assert!(range(3, 0) > 0.2, "spine1 bend range {}", range(3, 0));
         assert!(range(1, 0) > 0.8, "left hip flexion range {}", range(1, 0));
@@ -388,8 +434,14 @@ mod tests {
             prev = s.clone();
         }
         assert_eq!(interpolation_steps(&a, &a, 0.05).unwrap(), vec![a.clone()]);
-        assert!(matches!(interpolation_steps(&a, &b, 0.0), Err(Error::InvalidArgument(_))));
-        assert!(matches!(interpolation_steps(&a, &b, f64::NAN), Err(Error::InvalidArgument(_))));
+        assert!(matches!(
+            interpolation_steps(&a, &b, 0.0),
+            Err(Error::InvalidArgument(_))
+        ));
+        assert!(matches!(
+            interpolation_steps(&a, &b, f64::NAN),
+            Err(Error::InvalidArgument(_))
+        ));
     }
 
     proptest! {

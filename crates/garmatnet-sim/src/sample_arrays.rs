@@ -29,7 +29,11 @@ impl SampleArrays {
     /// The arrays in [`ARRAY_NAMES`] order.
     #[must_use]
     pub fn by_name(&self) -> [(&'static str, &[[f32; 3]]); 3] {
-        [("simulated", &self.simulated), ("smoothed", &self.smoothed), ("body", &self.body)]
+        [
+            ("simulated", &self.simulated),
+            ("smoothed", &self.smoothed),
+            ("body", &self.body),
+        ]
     }
 
     /// Checks shapes and finiteness, naming `sample` in errors.
@@ -39,17 +43,28 @@ impl SampleArrays {
     /// array is empty; [`Error::NonFinite`] for NaN or infinity.
     pub fn validate(&self, sample: &str, vertex_count: usize) -> Result<()> {
         for (name, points) in self.by_name() {
-            let ok = if name == "body" { !points.is_empty() } else { points.len() == vertex_count };
+            let ok = if name == "body" {
+                !points.is_empty()
+            } else {
+                points.len() == vertex_count
+            };
             if !ok {
                 return Err(Error::Mismatch {
                     what: format!("sample {sample} {name} rows"),
-                    expected: if name == "body" { "at least 1".into() } else { vertex_count.to_string() },
+                    expected: if name == "body" {
+                        "at least 1".into()
+                    } else {
+                        vertex_count.to_string()
+                    },
                     got: points.len().to_string(),
                 });
             }
             let flat = points.as_flattened();
             if let Some(index) = flat.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite { what: format!("sample {sample} {name}"), index });
+                return Err(Error::NonFinite {
+                    what: format!("sample {sample} {name}"),
+                    index,
+                });
             }
         }
         Ok(())
@@ -69,7 +84,8 @@ pub fn write_points_npy(path: &Path, points: &[[f32; 3]]) -> Result<()> {
         .writer(&mut bytes)
         .begin_nd()
         .map_err(io)?;
-    w.extend(points.as_flattened().iter().copied()).map_err(io)?;
+    w.extend(points.as_flattened().iter().copied())
+        .map_err(io)?;
     w.finish().map_err(io)?;
     garmatnet_core::write_atomic(path, &bytes)
 }
@@ -93,16 +109,25 @@ pub fn read_points_npy(path: &Path, sample: &str) -> Result<Vec<[f32; 3]>> {
     let shape = npy.shape().to_vec();
     let rows = match shape[..] {
         [n, 3] if n >= 1 => n,
-        _ => return Err(parse(format!("array has shape {shape:?}; expected [n, 3] with n >= 1"))),
+        _ => {
+            return Err(parse(format!(
+                "array has shape {shape:?}; expected [n, 3] with n >= 1"
+            )));
+        }
     };
     let is_f32 = matches!(npy.dtype(), DType::Plain(ts) if ts.type_char() == TypeChar::Float && ts.size_field() == 4);
     if !is_f32 {
-        return Err(parse(format!("array has dtype {:?}; expected float32", npy.dtype())));
+        return Err(parse(format!(
+            "array has dtype {:?}; expected float32",
+            npy.dtype()
+        )));
     }
     if npy.order() != Order::C {
         return Err(parse("array is in Fortran order; expected C order".into()));
     }
-    let flat = npy.into_vec::<f32>().map_err(|e| parse(format!("cannot read data: {e}")))?;
+    let flat = npy
+        .into_vec::<f32>()
+        .map_err(|e| parse(format!("cannot read data: {e}")))?;
     if flat.len() as u64 != rows * 3 {
         return Err(parse("array data is truncated".into()));
     }
@@ -123,7 +148,10 @@ mod tests {
 
         std::fs::write(&p, b"\x93NUMPY garbage").unwrap();
         let e = read_points_npy(&p, "m001_p0002").unwrap_err();
-        assert!(matches!(&e, Error::Parse { .. }) && e.to_string().contains("m001_p0002"), "{e}");
+        assert!(
+            matches!(&e, Error::Parse { .. }) && e.to_string().contains("m001_p0002"),
+            "{e}"
+        );
 
         let bytes = std::fs::read(dir.path().join("a.npy"));
         assert!(bytes.is_ok());
@@ -137,7 +165,12 @@ mod tests {
         w.extend([0.0f32; 4]).unwrap();
         w.finish().unwrap();
         std::fs::write(&p, &full).unwrap();
-        assert!(read_points_npy(&p, "s").unwrap_err().to_string().contains("[2, 2]"));
+        assert!(
+            read_points_npy(&p, "s")
+                .unwrap_err()
+                .to_string()
+                .contains("[2, 2]")
+        );
 
         write_points_npy(&p, &pts).unwrap();
         let mut truncated = std::fs::read(&p).unwrap();
@@ -158,6 +191,9 @@ mod tests {
         assert!(matches!(e, Error::Mismatch { .. }) && e.to_string().contains("m000_p0000"));
         let mut nan = a.clone();
         nan.smoothed[1][2] = f32::NAN;
-        assert!(matches!(nan.validate("x", 4), Err(Error::NonFinite { index: 5, .. })));
+        assert!(matches!(
+            nan.validate("x", 4),
+            Err(Error::NonFinite { index: 5, .. })
+        ));
     }
 }

@@ -1,0 +1,259 @@
+//! Reading and checking a dataset written by [`crate::DatasetWriter`] (layout in
+//! [`crate::dataset`]).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use garmatnet_core::{Error, Result};
+
+use crate::dataset::{samples_dir, scan_samples};
+use crate::manifest::{DatasetSpec, Manifest, SampleRecord};
+use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
+
+/// A dataset opened for reading. Samples come from their completion markers, so a directory
+/// whose manifest is stale (a killed run, merged shards) reads completely.
+#[derive(Debug, Clone)]
+pub struct DatasetReader {
+    dir: PathBuf,
+    spec: DatasetSpec,
+    samples: Vec<SampleRecord>,
+}
+
+impl DatasetReader {
+    /// Opens `dir`: validates the manifest (format version, counts) and lists the finished
+    /// samples. Arrays are read and checked lazily by [`DatasetReader::read_sample`].
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the manifest cannot be read; [`Error::Parse`] for a malformed
+    /// manifest, an unknown format version or a malformed marker.
+    pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
+        let dir = dir.as_ref().to_owned();
+        let spec = Manifest::read(&dir)?.spec;
+        let samples = scan_samples(&dir, &spec)?;
+        Ok(Self { dir, spec, samples })
+    }
+
+    /// The dataset directory.
+    #[must_use]
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// What the dataset contains (template, body, materials, poses, settings).
+    #[must_use]
+    pub fn spec(&self) -> &DatasetSpec {
+        &self.spec
+    }
+
+    /// The finished samples, sorted by (material, pose).
+    #[must_use]
+    pub fn samples(&self) -> &[SampleRecord] {
+        &self.samples
+    }
+
+    /// The finished sample (`material`, `pose`), if any.
+    #[must_use]
+    pub fn sample(&self, material: usize, pose: usize) -> Option<&SampleRecord> {
+        self.samples
+            .binary_search_by_key(&(material, pose), |r| (r.material, r.pose))
+            .ok()
+            .map(|i| &self.samples[i])
+    }
+
+    /// Reads and checks one sample's arrays.
+    ///
+    /// # Shapes
+    /// `simulated`, `smoothed`: `[vertex_count, 3]`; `body`: `[m, 3]`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if an array file is missing; [`Error::Parse`] naming the file and sample
+    /// for a corrupt file, wrong dtype or shape (including a row count other than the
+    /// template's `vertex_count`) or a NaN/infinite value.
+    pub fn read_sample(&self, record: &SampleRecord) -> Result<SampleArrays> {
+        let (arrays, _) = self.read_arrays(record)?;
+        if let Some((name, index)) = first_non_finite(&arrays) {
+            return Err(Error::Parse {
+                path: self.array_path(record, name),
+                line: None,
+                message: format!(
+                    "sample {}: non-finite value (NaN or infinity) at flat index {index}; \
+                     regenerate the sample",
+                    record.stem
+                ),
+            });
+        }
+        Ok(arrays)
+    }
+
+    fn array_path(&self, record: &SampleRecord, name: &str) -> PathBuf {
+        samples_dir(&self.dir)
+            .join(&record.stem)
+            .join(format!("{name}.npy"))
+    }
+
+    /// Reads the arrays with shape checks only; also returns the NaN/infinity count.
+    fn read_arrays(&self, record: &SampleRecord) -> Result<(SampleArrays, usize)> {
+        let read = |name: &str| -> Result<Vec<[f32; 3]>> {
+            let path = self.array_path(record, name);
+            let points = read_points_npy(&path, &record.stem)?;
+            let n = self.spec.template.vertex_count;
+            if name != "body" && points.len() != n {
+                return Err(Error::Parse {
+                    path,
+                    line: None,
+                    message: format!(
+                        "sample {}: {name} has {} rows; the template has {n} vertices",
+                        record.stem,
+                        points.len()
+                    ),
+                });
+            }
+            Ok(points)
+        };
+        let [simulated, smoothed, body] = ARRAY_NAMES;
+        let (simulated, smoothed, body) = (read(simulated)?, read(smoothed)?, read(body)?);
+        let arrays = SampleArrays {
+            simulated,
+            smoothed,
+            body,
+        };
+        let non_finite = arrays
+            .by_name()
+            .iter()
+            .map(|(_, p)| p.as_flattened().iter().filter(|v| !v.is_finite()).count())
+            .sum();
+        Ok((arrays, non_finite))
+    }
+}
+
+fn first_non_finite(arrays: &SampleArrays) -> Option<(&'static str, usize)> {
+    arrays.by_name().into_iter().find_map(|(name, p)| {
+        p.as_flattened()
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|i| (name, i))
+    })
+}
+
+/// Minimum, mean and maximum of a statistic over the finished samples (all 0 when none).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Summary {
+    /// Smallest value.
+    pub min: f64,
+    /// Mean value.
+    pub mean: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Summary {
+    fn of(values: impl Iterator<Item = f64>) -> Self {
+        let v: Vec<f64> = values.collect();
+        if v.is_empty() {
+            return Self::default();
+        }
+        Self {
+            min: v.iter().copied().fold(f64::INFINITY, f64::min),
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            max: v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+}
+
+/// What [`check`] found in a dataset directory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetReport {
+    /// Number of materials.
+    pub materials: usize,
+    /// Number of poses.
+    pub poses: usize,
+    /// Finished samples (with a completion marker).
+    pub complete: usize,
+    /// Samples not finished yet, as (material, pose).
+    pub missing: Vec<(usize, usize)>,
+    /// Finished samples whose arrays are unreadable or mis-shaped, with the reason.
+    pub corrupt: Vec<(String, String)>,
+    /// Total NaN/infinite values over all readable arrays.
+    pub non_finite_values: usize,
+    /// Finished samples whose solver did not converge.
+    pub not_converged: usize,
+    /// Solver residuals.
+    pub residual: Summary,
+    /// Deepest penetrations (metres).
+    pub max_penetration_m: Summary,
+    /// Largest edge strains.
+    pub max_strain: Summary,
+}
+
+impl DatasetReport {
+    /// Whether the dataset is complete and every sample is readable and finite.
+    #[must_use]
+    pub fn is_ok(&self) -> bool {
+        self.missing.is_empty() && self.corrupt.is_empty() && self.non_finite_values == 0
+    }
+}
+
+impl fmt::Display for DatasetReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let expected = self.materials * self.poses;
+        writeln!(
+            f,
+            "{} materials x {} poses = {expected} samples",
+            self.materials, self.poses
+        )?;
+        writeln!(
+            f,
+            "complete: {}, missing: {}",
+            self.complete,
+            self.missing.len()
+        )?;
+        if let Some((m, p)) = self.missing.first() {
+            writeln!(f, "  first missing: material {m}, pose {p}")?;
+        }
+        writeln!(f, "corrupt: {}", self.corrupt.len())?;
+        for (stem, why) in self.corrupt.iter().take(10) {
+            writeln!(f, "  {stem}: {why}")?;
+        }
+        writeln!(f, "non-finite values: {}", self.non_finite_values)?;
+        writeln!(f, "not converged: {}", self.not_converged)?;
+        let s = |x: &Summary| format!("min {:.3e}, mean {:.3e}, max {:.3e}", x.min, x.mean, x.max);
+        writeln!(f, "residual: {}", s(&self.residual))?;
+        writeln!(f, "max penetration (m): {}", s(&self.max_penetration_m))?;
+        write!(f, "max strain: {}", s(&self.max_strain))
+    }
+}
+
+/// Reads every finished sample of `dir` and reports counts, missing and corrupt samples, NaN
+/// values and solver statistics (what `garmatnet dataset check` prints).
+///
+/// # Errors
+/// As [`DatasetReader::open`]; problems with individual samples go into the report.
+pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
+    let reader = DatasetReader::open(dir)?;
+    let spec = reader.spec();
+    let mut corrupt = Vec::new();
+    let mut non_finite_values = 0;
+    for record in reader.samples() {
+        match reader.read_arrays(record) {
+            Ok((_, bad)) => non_finite_values += bad,
+            Err(e) => corrupt.push((record.stem.clone(), e.to_string())),
+        }
+    }
+    let missing = (0..spec.materials.len())
+        .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
+        .filter(|&(m, p)| reader.sample(m, p).is_none())
+        .collect();
+    let stats = || reader.samples().iter().map(|r| &r.stats);
+    Ok(DatasetReport {
+        materials: spec.materials.len(),
+        poses: spec.poses.len(),
+        complete: reader.samples().len(),
+        missing,
+        corrupt,
+        non_finite_values,
+        not_converged: stats().filter(|s| !s.converged).count(),
+        residual: Summary::of(stats().map(|s| s.residual)),
+        max_penetration_m: Summary::of(stats().map(|s| s.max_penetration_m)),
+        max_strain: Summary::of(stats().map(|s| s.max_strain)),
+    })
+}
