@@ -361,6 +361,12 @@ impl DatasetWriter {
         Ok(())
     }
 
+    /// Drops the writer as a killed process would: lock released, manifest not rewritten.
+    #[cfg(test)]
+    fn simulate_kill(self) {
+        self.lock_state().dirty = false;
+    }
+
     fn lock_state(&self) -> std::sync::MutexGuard<'_, WriterState> {
         // A panic in another writer thread cannot leave the map inconsistent (each insert
         // is one call), so a poisoned lock is still usable.
@@ -486,4 +492,243 @@ pub fn merge_shards(
     let spec = Manifest::read(dest)?.spec;
     DatasetWriter::open(dest, spec)?.flush()?;
     Ok(copied)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::manifest::{BodyInfo, MaterialEntry, SmoothingInfo, TemplateInfo};
+    use garmatnet_core::{JointLimits, SplitMix64};
+
+    pub(crate) const VERTICES: usize = 10;
+
+    /// 3 materials x 4 poses x 10 vertices.
+    pub(crate) fn tiny_spec() -> DatasetSpec {
+        let limits = JointLimits::default();
+        let mut rng = SplitMix64::new(9);
+        DatasetSpec {
+            template: TemplateInfo {
+                resolution: "tiny".into(),
+                vertex_count: VERTICES,
+                hash: "abc123".into(),
+            },
+            body: BodyInfo {
+                name: "capsule-smpl-neutral".into(),
+            },
+            materials: (0..3)
+                .map(|i| MaterialEntry {
+                    name: format!("fabric{i}"),
+                    omega: [10.0 + i as f64, 11.0, 0.1, 0.2, 5.0, 0.15],
+                    omega_normalized: [0.1 * i as f64, 0.2, 0.3, 0.4, 0.5, 0.6],
+                })
+                .collect(),
+            poses: (0..4).map(|_| limits.sample(&mut rng, 0.8)).collect(),
+            frames: vec![0, 10, 20, 30],
+            solver: serde_json::json!({ "tolerance": 1e-6, "max_iterations": 200 }),
+            smoothing: SmoothingInfo {
+                lambda: 0.5,
+                iterations: 20,
+                weights: "uniform".into(),
+            },
+        }
+    }
+
+    pub(crate) fn arrays(material: usize, pose: usize) -> SampleArrays {
+        let v = |k: usize| {
+            (0..VERTICES)
+                .map(|i| [material as f32, pose as f32, (i + k) as f32 * 0.01])
+                .collect()
+        };
+        SampleArrays {
+            simulated: v(0),
+            smoothed: v(1),
+            body: v(2)[..4].to_vec(),
+        }
+    }
+
+    pub(crate) fn stats(residual: f64) -> SampleStats {
+        SampleStats {
+            iterations: 12,
+            residual,
+            max_penetration_m: 1e-3,
+            max_strain: 0.05,
+            wall_time_ms: 3.0,
+            converged: true,
+        }
+    }
+
+    #[test]
+    fn writes_manifest_and_samples_then_resumes_after_a_kill() {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = tiny_spec();
+        {
+            let w = DatasetWriter::open(dir.path(), spec.clone()).unwrap();
+            w.write_sample(0, 1, &arrays(0, 1), stats(1e-7)).unwrap();
+            w.write_sample(2, 3, &arrays(2, 3), stats(2e-7)).unwrap();
+            // A sample in flight when the run dies: arrays written, no marker yet.
+            let inflight = samples_dir(dir.path()).join(sample_stem(1, 0));
+            std::fs::create_dir_all(&inflight).unwrap();
+            write_points_npy(&inflight.join("simulated.npy"), &arrays(1, 0).simulated).unwrap();
+            w.simulate_kill();
+        }
+        // The manifest on disk predates the samples; reopening heals it from the markers.
+        assert!(Manifest::read(dir.path()).unwrap().samples.is_empty());
+        let w = DatasetWriter::open(dir.path(), spec.clone()).unwrap();
+        assert!(w.is_done(0, 1) && w.is_done(2, 3));
+        assert!(!w.is_done(1, 0), "a sample without marker must be redone");
+        assert_eq!(w.done_count(), 2);
+        let manifest = Manifest::read(dir.path()).unwrap();
+        assert_eq!(manifest.format_version, DATASET_FORMAT_VERSION);
+        assert_eq!(manifest.spec, spec);
+        let listed: Vec<_> = manifest
+            .samples
+            .iter()
+            .map(|r| (r.material, r.pose))
+            .collect();
+        assert_eq!(listed, vec![(0, 1), (2, 3)]);
+        assert_eq!(manifest.samples[1].stats, stats(2e-7));
+    }
+
+    #[test]
+    fn second_writer_is_refused_by_the_lock() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        let err = DatasetWriter::open(dir.path(), tiny_spec()).unwrap_err();
+        assert!(
+            matches!(&err, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::WouldBlock),
+            "{err}"
+        );
+        drop(first);
+        DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+    }
+
+    #[test]
+    fn resuming_with_a_different_spec_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        drop(DatasetWriter::open(dir.path(), tiny_spec()).unwrap());
+        let mut other = tiny_spec();
+        other.template.hash = "def456".into();
+        assert!(matches!(
+            DatasetWriter::open(dir.path(), other),
+            Err(Error::Mismatch { .. })
+        ));
+        let mut other = tiny_spec();
+        other.materials[1].omega[4] += 1e-9;
+        assert!(matches!(
+            DatasetWriter::open(dir.path(), other),
+            Err(Error::Mismatch { .. })
+        ));
+        let mut other = tiny_spec();
+        other.poses.pop();
+        other.frames.pop();
+        let err = DatasetWriter::open(dir.path(), other).unwrap_err();
+        assert!(
+            matches!(err, Error::Mismatch { .. }) && err.to_string().contains("pose 3"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn bad_samples_are_refused_before_anything_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        assert!(matches!(
+            w.write_sample(3, 0, &arrays(0, 0), stats(0.0)),
+            Err(Error::InvalidArgument(_))
+        ));
+        let mut short = arrays(0, 0);
+        short.simulated.pop();
+        assert!(matches!(
+            w.write_sample(0, 0, &short, stats(0.0)),
+            Err(Error::Mismatch { .. })
+        ));
+        let mut nan = arrays(0, 0);
+        nan.body[0][1] = f32::NAN;
+        assert!(matches!(
+            w.write_sample(0, 0, &nan, stats(0.0)),
+            Err(Error::NonFinite { .. })
+        ));
+        assert!(matches!(
+            w.write_sample(0, 0, &arrays(0, 0), stats(f64::NAN)),
+            Err(Error::InvalidArgument(_))
+        ));
+        assert_eq!(w.done_count(), 0);
+        assert_eq!(
+            std::fs::read_dir(samples_dir(dir.path())).unwrap().count(),
+            0
+        );
+    }
+
+    #[test]
+    fn concurrent_writers_from_threads_record_every_sample() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        std::thread::scope(|s| {
+            for m in 0..3 {
+                let w = &w;
+                s.spawn(move || {
+                    for p in 0..4 {
+                        w.write_sample(m, p, &arrays(m, p), stats(1e-6)).unwrap();
+                    }
+                });
+            }
+        });
+        w.flush().unwrap();
+        assert_eq!(Manifest::read(dir.path()).unwrap().samples.len(), 12);
+    }
+
+    #[test]
+    fn shards_partition_materials_and_merge_by_copy() {
+        let root = tempfile::tempdir().unwrap();
+        let spec = tiny_spec();
+        let shards: Vec<PathBuf> = (0..2)
+            .map(|i| root.path().join(format!("shard{i}")))
+            .collect();
+        for (i, dir) in shards.iter().enumerate() {
+            let shard = Shard::new(i, 2).unwrap();
+            let w = DatasetWriter::open(dir, spec.clone()).unwrap();
+            for m in (0..3).filter(|&m| shard.contains_material(m)) {
+                for p in 0..4 {
+                    w.write_sample(m, p, &arrays(m, p), stats(1e-6)).unwrap();
+                }
+            }
+        }
+        let merged = root.path().join("merged");
+        assert_eq!(merge_shards(&merged, &shards, spec.clone()).unwrap(), 12);
+        let manifest = Manifest::read(&merged).unwrap();
+        assert_eq!(manifest.samples.len(), 12);
+        // Plain directory copies (no merge_shards) are also picked up on open.
+        let copied = root.path().join("copied");
+        drop(DatasetWriter::open(&copied, spec.clone()).unwrap());
+        for entry in std::fs::read_dir(samples_dir(&shards[1])).unwrap() {
+            let entry = entry.unwrap();
+            let to = samples_dir(&copied).join(entry.file_name());
+            std::fs::create_dir_all(&to).unwrap();
+            for f in std::fs::read_dir(entry.path()).unwrap() {
+                let f = f.unwrap();
+                std::fs::copy(f.path(), to.join(f.file_name())).unwrap();
+            }
+        }
+        let w = DatasetWriter::open(&copied, spec).unwrap();
+        assert_eq!(w.done_count(), 4);
+        assert!(w.is_done(1, 3) && !w.is_done(0, 0));
+    }
+
+    #[test]
+    fn shard_parsing() {
+        assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
+        for bad in ["4/4", "1", "a/b", "0/0", "-1/3"] {
+            assert!(
+                matches!(Shard::parse(bad), Err(Error::InvalidArgument(_))),
+                "{bad}"
+            );
+        }
+        let s = Shard::new(2, 3).unwrap();
+        assert_eq!(
+            (0..9)
+                .filter(|&m| s.contains_material(m))
+                .collect::<Vec<_>>(),
+            vec![2, 5, 8]
+        );
+    }
 }

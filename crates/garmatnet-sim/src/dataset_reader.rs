@@ -257,3 +257,119 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
         max_strain: Summary::of(stats().map(|s| s.max_strain)),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::DatasetWriter;
+    use crate::dataset::tests::{VERTICES, arrays, stats, tiny_spec};
+    use crate::sample_arrays::write_points_npy;
+    use npyz::WriterBuilder;
+
+    fn full_dataset(dir: &Path) {
+        let w = DatasetWriter::open(dir, tiny_spec()).unwrap();
+        for m in 0..3 {
+            for p in 0..4 {
+                w.write_sample(m, p, &arrays(m, p), stats((m * 4 + p) as f64))
+                    .unwrap();
+            }
+        }
+    }
+
+    fn sample_file(dir: &Path, stem: &str, name: &str) -> PathBuf {
+        samples_dir(dir).join(stem).join(format!("{name}.npy"))
+    }
+
+    #[test]
+    fn reads_back_what_was_written_and_checks_clean() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let r = DatasetReader::open(dir.path()).unwrap();
+        assert_eq!(r.samples().len(), 12);
+        assert_eq!(
+            r.read_sample(r.sample(2, 1).unwrap()).unwrap(),
+            arrays(2, 1)
+        );
+        let report = check(dir.path()).unwrap();
+        assert!(report.is_ok(), "{report}");
+        assert_eq!((report.complete, report.missing.len()), (12, 0));
+        assert_eq!(report.residual.max, 11.0);
+        assert!((report.residual.mean - 5.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn corrupt_wrong_shape_and_nan_samples_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let d = dir.path();
+        std::fs::write(sample_file(d, "m000_p0001", "smoothed"), b"not an npy").unwrap();
+        write_points_npy(
+            &sample_file(d, "m001_p0002", "simulated"),
+            &[[0.0; 3]; VERTICES - 1],
+        )
+        .unwrap();
+        let mut nan = arrays(2, 3).body;
+        nan[1][0] = f32::NAN;
+        nan[2][2] = f32::INFINITY;
+        write_points_npy(&sample_file(d, "m002_p0003", "body"), &nan).unwrap();
+        // A float64 array where float32 is required.
+        let mut f64_bytes = Vec::new();
+        let mut w = npyz::WriteOptions::<f64>::new()
+            .default_dtype()
+            .shape(&[VERTICES as u64, 3])
+            .writer(&mut f64_bytes)
+            .begin_nd()
+            .unwrap();
+        w.extend(std::iter::repeat_n(0.0, VERTICES * 3)).unwrap();
+        w.finish().unwrap();
+        std::fs::write(sample_file(d, "m001_p0000", "smoothed"), f64_bytes).unwrap();
+
+        let r = DatasetReader::open(d).unwrap();
+        for (m, p, stem, needle) in [
+            (0, 1, "m000_p0001", "not a valid .npy"),
+            (1, 2, "m001_p0002", "9 rows"),
+            (2, 3, "m002_p0003", "non-finite"),
+            (1, 0, "m001_p0000", "float32"),
+        ] {
+            let err = r.read_sample(r.sample(m, p).unwrap()).unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, Error::Parse { .. }), "{text}");
+            assert!(text.contains(stem) && text.contains(needle), "{text}");
+        }
+        std::fs::remove_dir_all(samples_dir(d).join("m002_p0000")).unwrap();
+        let report = check(d).unwrap();
+        assert!(!report.is_ok());
+        assert_eq!(report.complete, 11);
+        assert_eq!(report.missing, vec![(2, 0)]);
+        let corrupt: Vec<&str> = report.corrupt.iter().map(|(s, _)| s.as_str()).collect();
+        assert_eq!(corrupt, vec!["m000_p0001", "m001_p0000", "m001_p0002"]);
+        assert_eq!(report.non_finite_values, 2);
+    }
+
+    #[test]
+    fn unknown_format_version_and_bad_markers_are_typed_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let marker = samples_dir(dir.path())
+            .join("m000_p0000")
+            .join("stats.json");
+        std::fs::write(&marker, b"{\"material\": 1}").unwrap();
+        let err = DatasetReader::open(dir.path()).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }) && err.to_string().contains("m000_p0000"));
+
+        let path = crate::manifest::manifest_path(dir.path());
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(
+            &path,
+            text.replacen("\"format_version\": 1", "\"format_version\": 2", 1),
+        )
+        .unwrap();
+        let err = DatasetReader::open(dir.path()).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }) && err.to_string().contains("format_version"));
+        std::fs::write(&path, b"{").unwrap();
+        assert!(matches!(
+            DatasetReader::open(dir.path()),
+            Err(Error::Parse { .. })
+        ));
+    }
+}

@@ -153,8 +153,6 @@ mod tests {
             "{e}"
         );
 
-        let bytes = std::fs::read(dir.path().join("a.npy"));
-        assert!(bytes.is_ok());
         let mut full = Vec::new();
         let mut w = npyz::WriteOptions::<f32>::new()
             .default_dtype()
