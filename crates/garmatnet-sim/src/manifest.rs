@@ -71,9 +71,9 @@ pub struct SampleStats {
 /// Written as the sample's `stats.json` completion marker and listed in the manifest.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SampleRecord {
-    /// Index into [`Manifest::materials`].
+    /// Index into [`DatasetSpec::materials`].
     pub material: usize,
-    /// Index into [`Manifest::poses`].
+    /// Index into [`DatasetSpec::poses`].
     pub pose: usize,
     /// The sample's directory name under `DIR/samples/` ([`sample_stem`]).
     pub stem: String,
