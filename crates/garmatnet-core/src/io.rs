@@ -60,9 +60,18 @@ pub fn write_atomic(
         write(&mut buffered).map_err(|e| Error::io(path, e))?;
         buffered.flush().map_err(|e| Error::io(path, e))?;
     }
+    tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     // Dropping `tmp` on the error paths above deletes the temporary file.
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// Writes `bytes` to `path` atomically (see [`write_atomic`]).
+///
+/// # Errors
+/// [`Error::Io`] naming `path` if any step fails.
+pub fn write_bytes_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |w| w.write_all(bytes))
 }
 
 /// Reads a Wavefront OBJ file as one triangle mesh (see the module docs for what is kept).

@@ -17,6 +17,7 @@ pub mod material_presets;
 pub mod math;
 pub mod mesh;
 pub mod pose;
+pub mod pose_file;
 pub mod render;
 pub mod rng;
 pub mod sdf;
@@ -31,7 +32,7 @@ pub use capsule_body::{
 };
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
-pub use io::{read_obj, write_atomic, write_obj, write_ply};
+pub use io::{read_obj, write_atomic, write_bytes_atomic, write_obj, write_ply};
 pub use laplacian::{
     CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,
 };
@@ -41,6 +42,7 @@ pub use material_presets::{PAPER_TEST_MATERIALS, Preset, find_preset, preset_nam
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::{Aabb, Adjacency, TriMesh};
 pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
+pub use pose_file::{read_poses, write_poses_json};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
