@@ -6,18 +6,24 @@
 
 pub mod anchor;
 pub mod error;
+pub mod garment;
 pub mod math;
 pub mod mesh;
 pub mod pose;
 pub mod rng;
 pub mod sdf;
 pub mod skeleton;
+pub mod spring;
+pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use error::{Error, Result};
+pub use garment::{BoundaryLoop, Garment, Opening, Resolution, MIN_BODY_CLEARANCE};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
 pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
+pub use spring::{Spring, SpringKind};
+pub use tshirt_pattern::Panel;
 pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};
