@@ -18,12 +18,12 @@ pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use error::{Error, Result};
-pub use garment::{BoundaryLoop, Garment, Opening, Resolution, MIN_BODY_CLEARANCE};
+pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::TriMesh;
-pub use pose::{JointLimits, Pose, POSE_DIM, SMPLH_POSE_DIM};
+pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
+pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
 pub use spring::{Spring, SpringKind};
 pub use tshirt_pattern::Panel;
-pub use skeleton::{blend_point, joint_index, Skeleton, JOINT_COUNT, JOINT_NAMES, PARENTS};

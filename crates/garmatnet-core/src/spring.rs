@@ -68,12 +68,18 @@ pub struct Spring {
 /// one: the grid line folds over the seam), so the cloth resists bending at the seams as
 /// elsewhere. Nothing connects across an opening: every spring's grid path is cloth.
 pub(crate) fn provot_springs(grid: &PanelGrid, vertices: &[Vec3]) -> Vec<Spring> {
-    let mut builder = SpringBuilder { vertices, seen: HashSet::new(), springs: Vec::new() };
+    let mut builder = SpringBuilder {
+        vertices,
+        seen: HashSet::new(),
+        springs: Vec::new(),
+    };
     for side in 0..2 {
         for j in 0..=grid.jt {
             for i in -grid.ic..=grid.ic {
                 let p = (i, j);
-                let Some(pv) = grid.vertex(side, p) else { continue };
+                let Some(pv) = grid.vertex(side, p) else {
+                    continue;
+                };
                 for (q, kind) in [
                     ((i + 1, j), SpringKind::StructuralHorizontal),
                     ((i, j + 1), SpringKind::StructuralVertical),
@@ -145,7 +151,12 @@ impl SpringBuilder<'_> {
         }
         let rest_length = (self.vertices[a as usize] - self.vertices[b as usize]).norm();
         if rest_length > 0.0 {
-            self.springs.push(Spring { a, b, rest_length, kind });
+            self.springs.push(Spring {
+                a,
+                b,
+                rest_length,
+                kind,
+            });
         }
     }
 }

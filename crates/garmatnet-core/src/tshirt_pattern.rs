@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::math::{Real, Vec3};
-use crate::skeleton::{joint_index, Skeleton};
+use crate::skeleton::{Skeleton, joint_index};
 
 /// Which pattern panel a garment vertex belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -242,7 +242,10 @@ impl TshirtPattern {
         let cap_arc = QuarterEllipse::new(shape.c, shape.cap_height).length();
         let jt = cells_of(cap_arc + shape.y_ridge_centre - shape.cap_height - shape.y_hem);
         let i_neck = cells_of(ellipse.arc_at((shape.x_neck / shape.a).clamp(-1.0, 1.0).asin()));
-        let drops = [cells_of(shape.neck_drop_front), cells_of(shape.neck_drop_back)];
+        let drops = [
+            cells_of(shape.neck_drop_front),
+            cells_of(shape.neck_drop_back),
+        ];
         if jt <= js + drops[0] || i_neck >= it || Real::from(js) * h <= cap_arc {
             return Err(Error::InvalidArgument(
                 "the skeleton's proportions leave no room for the T-shirt's neck and sleeves"
@@ -310,7 +313,10 @@ impl TshirtPattern {
                         continue;
                     }
                     let mut corner = [0u32; 4];
-                    for (k, p) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].into_iter().enumerate() {
+                    for (k, p) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+                        .into_iter()
+                        .enumerate()
+                    {
                         if let Some(&v) = index[side].get(&p) {
                             corner[k] = v;
                             continue;
@@ -353,8 +359,20 @@ impl TshirtPattern {
                 }
             }
         }
-        let grid = PanelGrid { ic, jt, cells, seam_edges, index };
-        Ok(Self { vertices, uv, panels, faces, grid })
+        let grid = PanelGrid {
+            ic,
+            jt,
+            cells,
+            seam_edges,
+            index,
+        };
+        Ok(Self {
+            vertices,
+            uv,
+            panels,
+            faces,
+            grid,
+        })
     }
 }
 
@@ -385,7 +403,8 @@ impl Geometry<'_> {
         let theta = sign * self.ellipse.angle_at(u.abs() / ut * self.ellipse.length());
         let x_torso = s.a * theta.sin() + sign * (u.abs() - ut).max(0.0);
         let x_rel = (x_torso / s.a).clamp(-1.0, 1.0);
-        let ridge = s.sleeve_top(sign) + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel);
+        let ridge =
+            s.sleeve_top(sign) + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel);
         let psi = std::f64::consts::FRAC_PI_2 * (depth_down / self.cap_arc).min(1.0);
         // Below the cap the torso is straight, piecewise linear in v so the armpit row
         // and the hem are level: the armpit sits below the sleeve's underarm line.
@@ -409,7 +428,7 @@ impl Geometry<'_> {
             // Full sleeve from halfway across the blend: the shoulder is as thick as the arm.
             let across = smoothstep((u.abs() - (ut - blend)) / (0.5 * blend));
             let above_armpit = smoothstep((v - v_armpit) / (band / 3.0));
-            let past_side = ((u.abs() - ut) / (2.0 * self.h)).clamp(0.0, 1.0);
+            let past_side = smoothstep((u.abs() - ut) / (band / 3.0));
             across * (above_armpit + past_side).min(1.0)
         };
         let (centre, half_depth) = if weight > 0.0 {
@@ -432,7 +451,11 @@ impl Geometry<'_> {
         };
         // Seam points lie on the panels' common plane exactly, whatever rounding says.
         let half_depth = if seam { 0.0 } else { half_depth };
-        let z = if side == 0 { centre.z + half_depth } else { centre.z - half_depth };
+        let z = if side == 0 {
+            centre.z + half_depth
+        } else {
+            centre.z - half_depth
+        };
         Vec3::new(centre.x, centre.y, z)
     }
 }
