@@ -9,6 +9,7 @@ pub mod capsule;
 pub mod capsule_body;
 pub mod decompose;
 pub mod error;
+pub mod garment;
 pub mod io;
 pub mod laplacian;
 pub mod material;
@@ -23,7 +24,9 @@ pub mod rng;
 pub mod sdf;
 pub mod skeleton;
 pub mod smpl_capsules;
+pub mod spring;
 pub mod surface_nets;
+pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use capsule::Capsule;
@@ -32,6 +35,7 @@ pub use capsule_body::{
 };
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
+pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
 pub use io::{read_obj, write_atomic, write_bytes_atomic, write_obj, write_ply};
 pub use laplacian::{
     CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,
@@ -47,4 +51,6 @@ pub use rng::SplitMix64;
 pub use sdf::{SignedDistance, SkinnedBody, Sphere};
 pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
 pub use smpl_capsules::smpl_neutral_capsules;
+pub use spring::{Spring, SpringKind};
 pub use surface_nets::surface_nets;
+pub use tshirt_pattern::Panel;

@@ -74,7 +74,8 @@ pub struct RenderSettings {
     pub height: u32,
     /// Background colour.
     pub background: Color,
-    /// Direction *towards* the key light (normalised internally).
+    /// Direction *towards* the key light in camera coordinates (x right, y up, z towards the
+    /// viewer), so every view is lit alike; normalised internally.
     pub light: Vec3,
     /// Ambient fraction of the lighting in [0, 1].
     pub ambient: Real,
@@ -133,7 +134,8 @@ pub fn render(
     let right = forward.cross(&camera.up).normalize();
     let up = right.cross(&forward);
     let focal = (h as Real * 0.5) / (camera.fov_y * 0.5).tan();
-    let light = settings.light.normalize();
+    let light =
+        (right * settings.light.x + up * settings.light.y - forward * settings.light.z).normalize();
     let project = |p: &Vec3| -> (Real, Real, Real) {
         let r = p - camera.eye;
         let z = r.dot(&forward);
