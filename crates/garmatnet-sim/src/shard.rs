@@ -92,7 +92,7 @@ pub fn merge_shards(
             for name in ["simulated.npy", "smoothed.npy", "body.npy", "stats.json"] {
                 let bytes =
                     std::fs::read(from.join(name)).map_err(|e| Error::io(from.join(name), e))?;
-                garmatnet_core::write_bytes_atomic(&to.join(name), &bytes)?;
+                garmatnet_core::write_bytes_atomic(to.join(name), &bytes)?;
             }
             copied += 1;
         }

@@ -1,0 +1,41 @@
+//! `garmatnet body`: write the procedural body, optionally posed, as a mesh file.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use garmatnet::core::{CapsuleBody, JointLimits, write_obj};
+
+use super::pose_arg::resolve_pose;
+
+/// Write the capsule body (SMPL's neutral proportions) as an OBJ, in the rest T-pose or posed.
+#[derive(Debug, Args)]
+pub struct BodyArgs {
+    /// Output OBJ file.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A frame of the built-in motion sequence, or a pose file (.json list of 72-vectors,
+    /// AMASS-style .npz, or .npy). Default: the rest T-pose.
+    #[arg(long)]
+    pub pose: Option<String>,
+    /// Which pose of a pose file (default 0).
+    #[arg(long)]
+    pub frame: Option<usize>,
+}
+
+/// Runs the command.
+pub fn run(args: &BodyArgs) -> Result<()> {
+    let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
+    if let Err(e) = JointLimits::default().validate(&pose, 1e-6) {
+        eprintln!("note: {e} (the body is posed anyway; garments are only trained within limits)");
+    }
+    let mesh = CapsuleBody::smpl_neutral().pose(&pose).mesh();
+    write_obj(&args.out, &mesh).with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} vertices, {} triangles)",
+        args.out.display(),
+        mesh.vertex_count(),
+        mesh.face_count()
+    );
+    Ok(())
+}
