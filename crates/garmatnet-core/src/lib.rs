@@ -10,6 +10,7 @@ pub mod capsule_body;
 pub mod decompose;
 pub mod error;
 pub mod garment;
+pub mod gltf;
 pub mod io;
 pub mod laplacian;
 pub mod material;
@@ -36,6 +37,7 @@ pub use capsule_body::{
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
+pub use gltf::{GlbMesh, write_glb};
 pub use io::{read_obj, write_atomic, write_bytes_atomic, write_obj, write_ply};
 pub use laplacian::{
     CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,
