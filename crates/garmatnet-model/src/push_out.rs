@@ -44,8 +44,9 @@ pub fn push_out(vertices: &mut [Vec3], body: &dyn SignedDistance, epsilon: Real)
         let start = *v;
         for _ in 0..MAX_STEPS {
             let (d, g) = body.distance_and_gradient(v);
-            // A tiny slack keeps rounding from re-flagging a vertex just placed at ε.
-            if !(d < epsilon - 1e-9) {
+            // A tiny slack keeps rounding from re-flagging a vertex just placed at ε; a NaN
+            // distance (a broken field) leaves the vertex where it is.
+            if d.is_nan() || d >= epsilon - 1e-9 {
                 break;
             }
             *v += g * (epsilon - d);
