@@ -9,12 +9,26 @@
 //!
 //! Backends are chosen at run time with [`select_device`]; the CPU (`flex`) is always there,
 //! the GPU with the `wgpu` feature.
+//!
+//! ```
+//! use burn::prelude::*;
+//! use garmatnet_model::{select_device, GarMatNetConfig};
+//!
+//! let device = select_device("cpu")?;
+//! // 50 garment vertices; pose branch 32, material branch 16, merged hidden layer 32.
+//! let net = GarMatNetConfig::new(50, 32, 16, 32).with_alpha(0.5).init(&device);
+//! let pose = Tensor::<2>::zeros([2, 72], &device);
+//! let material = Tensor::<2>::ones([2, 6], &device).mul_scalar(0.5);
+//! assert_eq!(net.forward(pose, material).dims(), [2, 150]);
+//! # Ok::<(), garmatnet_model::Error>(())
+//! ```
 
 pub mod baseline_net;
 pub mod device;
 pub mod error;
 pub mod garmatnet_net;
 pub mod model_file;
+mod model_tensors;
 pub mod output_normalizer;
 pub mod predictor;
 pub mod push_out;
