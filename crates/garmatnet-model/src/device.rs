@@ -2,7 +2,7 @@
 
 use burn::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 /// The device named `name`:
 /// - `"cpu"`: the pure-Rust `flex` backend (always available);
@@ -34,7 +34,7 @@ fn gpu_device() -> Result<Device> {
 
 #[cfg(not(feature = "wgpu"))]
 fn gpu_device() -> Result<Device> {
-    Err(Error::DeviceUnavailable(
+    Err(crate::error::Error::DeviceUnavailable(
         "this build has no GPU backend; rebuild with `--features wgpu` to use `gpu`".into(),
     ))
 }
@@ -56,7 +56,7 @@ mod tests {
     #[test]
     fn gpu_without_the_feature_says_how_to_get_it() {
         let err = select_device("gpu").unwrap_err();
-        assert!(matches!(err, Error::DeviceUnavailable(_)));
+        assert!(matches!(err, crate::error::Error::DeviceUnavailable(_)));
         assert!(err.to_string().contains("--features wgpu"));
     }
 }
