@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::{Iso3, Real, UnitQuat, Vec3};
-use crate::skeleton::{blend_point, JOINT_COUNT};
+use crate::skeleton::{JOINT_COUNT, blend_point};
 
 /// The frame in which garment displacements are expressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -56,7 +56,12 @@ impl BodyAnchor {
 
     /// Expresses a world-frame displacement `d` in `frame`.
     #[must_use]
-    pub fn to_frame(&self, d: &Vec3, frame: DisplacementFrame, transforms: &[Iso3; JOINT_COUNT]) -> Vec3 {
+    pub fn to_frame(
+        &self,
+        d: &Vec3,
+        frame: DisplacementFrame,
+        transforms: &[Iso3; JOINT_COUNT],
+    ) -> Vec3 {
         match frame {
             DisplacementFrame::World => *d,
             DisplacementFrame::Canonical => self.frame(transforms).inverse_transform_vector(d),
@@ -65,7 +70,12 @@ impl BodyAnchor {
 
     /// Turns a displacement expressed in `frame` back into the world frame.
     #[must_use]
-    pub fn from_frame(&self, d: &Vec3, frame: DisplacementFrame, transforms: &[Iso3; JOINT_COUNT]) -> Vec3 {
+    pub fn from_frame(
+        &self,
+        d: &Vec3,
+        frame: DisplacementFrame,
+        transforms: &[Iso3; JOINT_COUNT],
+    ) -> Vec3 {
         match frame {
             DisplacementFrame::World => *d,
             DisplacementFrame::Canonical => self.frame(transforms).transform_vector(d),
@@ -80,7 +90,10 @@ mod tests {
     use approx::assert_relative_eq;
 
     fn anchor() -> BodyAnchor {
-        BodyAnchor { rest_point: Vec3::new(0.3, 0.22, 0.05), weights: vec![(16, 0.7), (13, 0.2), (18, 0.1)] }
+        BodyAnchor {
+            rest_point: Vec3::new(0.3, 0.22, 0.05),
+            weights: vec![(16, 0.7), (13, 0.2), (18, 0.1)],
+        }
     }
 
     #[test]
@@ -100,8 +113,15 @@ mod tests {
         let a = anchor();
         let d = Vec3::new(0.01, -0.02, 0.03);
         let c = a.to_frame(&d, DisplacementFrame::Canonical, &t);
-        assert!((c - d).norm() > 1e-3, "a posed shoulder must rotate the displacement");
-        assert_relative_eq!(a.from_frame(&c, DisplacementFrame::Canonical, &t), d, epsilon = 1e-12);
+        assert!(
+            (c - d).norm() > 1e-3,
+            "a posed shoulder must rotate the displacement"
+        );
+        assert_relative_eq!(
+            a.from_frame(&c, DisplacementFrame::Canonical, &t),
+            d,
+            epsilon = 1e-12
+        );
         assert_relative_eq!(c.norm(), d.norm(), epsilon = 1e-12);
     }
 }

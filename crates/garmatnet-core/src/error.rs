@@ -35,7 +35,9 @@ pub enum Error {
         got: usize,
     },
     /// An input contains NaN or infinity.
-    #[error("{what} contains a non-finite value (NaN or infinity) at index {index}; every value must be a finite number")]
+    #[error(
+        "{what} contains a non-finite value (NaN or infinity) at index {index}; every value must be a finite number"
+    )]
     NonFinite {
         /// The input, e.g. `"pose vector"`.
         what: String,
@@ -88,7 +90,10 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 impl Error {
     /// An [`Error::Io`] for `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }
 
@@ -98,7 +103,10 @@ impl Error {
 /// [`Error::NonFinite`] with the index of the first NaN or infinity.
 pub fn ensure_finite(what: &str, values: impl IntoIterator<Item = f64>) -> Result<()> {
     match values.into_iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(Error::NonFinite { what: what.to_owned(), index }),
+        Some(index) => Err(Error::NonFinite {
+            what: what.to_owned(),
+            index,
+        }),
         None => Ok(()),
     }
 }

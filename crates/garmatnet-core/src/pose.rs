@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{ensure_finite, Error, Result};
+use crate::error::{Error, Result, ensure_finite};
 use crate::math::{Real, UnitQuat, Vec3};
 use crate::rng::SplitMix64;
 use crate::skeleton::{JOINT_COUNT, JOINT_NAMES};
@@ -46,7 +46,9 @@ impl Pose {
     /// The rest pose (SMPL's T-pose): all rotations zero.
     #[must_use]
     pub fn zero() -> Self {
-        Self { axis_angle: [Vec3::zeros(); JOINT_COUNT] }
+        Self {
+            axis_angle: [Vec3::zeros(); JOINT_COUNT],
+        }
     }
 
     /// A pose from SMPL's 72-vector.
@@ -58,12 +60,18 @@ impl Pose {
         if values.len() != POSE_DIM {
             return Err(Error::WrongLength {
                 what: "SMPL pose vector".into(),
-                expected: format!("{POSE_DIM} (24 joints x 3 axis-angle values; AMASS's 156 via Pose::from_smplh)"),
+                expected: format!(
+                    "{POSE_DIM} (24 joints x 3 axis-angle values; AMASS's 156 via Pose::from_smplh)"
+                ),
                 got: values.len(),
             });
         }
         ensure_finite("SMPL pose vector", values.iter().copied())?;
-        Ok(Self { axis_angle: std::array::from_fn(|j| Vec3::new(values[3 * j], values[3 * j + 1], values[3 * j + 2])) })
+        Ok(Self {
+            axis_angle: std::array::from_fn(|j| {
+                Vec3::new(values[3 * j], values[3 * j + 1], values[3 * j + 2])
+            }),
+        })
     }
 
     /// A pose from a 72-vector (SMPL) or a 156-vector (SMPL+H, as in AMASS's `poses`).
@@ -93,7 +101,10 @@ impl Pose {
     /// The 72 values, joint by joint.
     #[must_use]
     pub fn to_vec(&self) -> Vec<Real> {
-        self.axis_angle.iter().flat_map(|v| [v.x, v.y, v.z]).collect()
+        self.axis_angle
+            .iter()
+            .flat_map(|v| [v.x, v.y, v.z])
+            .collect()
     }
 
     /// Joint `j`'s axis-angle vector (radians).
@@ -179,30 +190,30 @@ impl Default for JointLimits {
     fn default() -> Self {
         // (x, y, z) ranges for the left side; right-side joints mirror y and z.
         let table: [([Real; 2], [Real; 2], [Real; 2]); JOINT_COUNT] = [
-            ([-0.35, 0.35], [-0.6, 0.6], [-0.25, 0.25]), // pelvis
-            ([-1.6, 0.5], [-0.5, 0.5], [-0.3, 0.9]),     // left_hip
-            ([-1.6, 0.5], [-0.5, 0.5], [-0.3, 0.9]),     // right_hip (mirrored below)
-            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),  // spine1
-            ([0.0, 2.0], [-0.05, 0.05], [-0.05, 0.05]),  // left_knee
-            ([0.0, 2.0], [-0.05, 0.05], [-0.05, 0.05]),  // right_knee
-            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),  // spine2
-            ([-0.5, 0.6], [-0.2, 0.2], [-0.2, 0.2]),     // left_ankle
-            ([-0.5, 0.6], [-0.2, 0.2], [-0.2, 0.2]),     // right_ankle
-            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),  // spine3
-            ([-0.2, 0.2], [-0.1, 0.1], [-0.1, 0.1]),     // left_foot
-            ([-0.2, 0.2], [-0.1, 0.1], [-0.1, 0.1]),     // right_foot
-            ([-0.35, 0.4], [-0.5, 0.5], [-0.3, 0.3]),    // neck
+            ([-0.35, 0.35], [-0.6, 0.6], [-0.25, 0.25]),  // pelvis
+            ([-1.6, 0.5], [-0.5, 0.5], [-0.3, 0.9]),      // left_hip
+            ([-1.6, 0.5], [-0.5, 0.5], [-0.3, 0.9]),      // right_hip (mirrored below)
+            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),   // spine1
+            ([0.0, 2.0], [-0.05, 0.05], [-0.05, 0.05]),   // left_knee
+            ([0.0, 2.0], [-0.05, 0.05], [-0.05, 0.05]),   // right_knee
+            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),   // spine2
+            ([-0.5, 0.6], [-0.2, 0.2], [-0.2, 0.2]),      // left_ankle
+            ([-0.5, 0.6], [-0.2, 0.2], [-0.2, 0.2]),      // right_ankle
+            ([-0.2, 0.35], [-0.25, 0.25], [-0.2, 0.2]),   // spine3
+            ([-0.2, 0.2], [-0.1, 0.1], [-0.1, 0.1]),      // left_foot
+            ([-0.2, 0.2], [-0.1, 0.1], [-0.1, 0.1]),      // right_foot
+            ([-0.35, 0.4], [-0.5, 0.5], [-0.3, 0.3]),     // neck
             ([-0.15, 0.15], [-0.25, 0.25], [-0.2, 0.35]), // left_collar
             ([-0.15, 0.15], [-0.25, 0.25], [-0.2, 0.35]), // right_collar
-            ([-0.35, 0.4], [-0.5, 0.5], [-0.3, 0.3]),    // head
-            ([-0.8, 0.8], [-1.2, 0.5], [-1.3, 0.9]),     // left_shoulder
-            ([-0.8, 0.8], [-1.2, 0.5], [-1.3, 0.9]),     // right_shoulder
-            ([-0.6, 0.6], [-2.2, 0.0], [-0.05, 0.05]),   // left_elbow
-            ([-0.6, 0.6], [-2.2, 0.0], [-0.05, 0.05]),   // right_elbow
-            ([-0.5, 0.5], [-0.3, 0.3], [-0.5, 0.5]),     // left_wrist
-            ([-0.5, 0.5], [-0.3, 0.3], [-0.5, 0.5]),     // right_wrist
-            ([-0.2, 0.2], [-0.2, 0.2], [-0.2, 0.2]),     // left_hand
-            ([-0.2, 0.2], [-0.2, 0.2], [-0.2, 0.2]),     // right_hand
+            ([-0.35, 0.4], [-0.5, 0.5], [-0.3, 0.3]),     // head
+            ([-0.8, 0.8], [-1.2, 0.5], [-1.3, 0.9]),      // left_shoulder
+            ([-0.8, 0.8], [-1.2, 0.5], [-1.3, 0.9]),      // right_shoulder
+            ([-0.6, 0.6], [-2.2, 0.0], [-0.05, 0.05]),    // left_elbow
+            ([-0.6, 0.6], [-2.2, 0.0], [-0.05, 0.05]),    // right_elbow
+            ([-0.5, 0.5], [-0.3, 0.3], [-0.5, 0.5]),      // left_wrist
+            ([-0.5, 0.5], [-0.3, 0.3], [-0.5, 0.5]),      // right_wrist
+            ([-0.2, 0.2], [-0.2, 0.2], [-0.2, 0.2]),      // left_hand
+            ([-0.2, 0.2], [-0.2, 0.2], [-0.2, 0.2]),      // right_hand
         ];
         let mut min = Vec::with_capacity(JOINT_COUNT);
         let mut max = Vec::with_capacity(JOINT_COUNT);
@@ -225,17 +236,19 @@ impl JointLimits {
     /// # Errors
     /// [`Error::OutOfRange`] naming the first joint and component outside its range.
     pub fn validate(&self, pose: &Pose, tolerance: Real) -> Result<()> {
-        for j in 0..JOINT_COUNT {
+        for (j, name) in JOINT_NAMES.iter().enumerate() {
             let v = pose.joint(j);
             for (c, axis) in ["x", "y", "z"].iter().enumerate() {
                 let (lo, hi) = (self.min[j][c], self.max[j][c]);
                 if v[c] < lo - tolerance || v[c] > hi + tolerance {
                     return Err(Error::OutOfRange {
-                        what: format!("joint `{}` axis-angle {axis} component (rad)", JOINT_NAMES[j]),
+                        what: format!("joint `{name}` axis-angle {axis} component (rad)"),
                         value: v[c],
                         min: lo,
                         max: hi,
-                        hint: "; clamp the pose with JointLimits::clamp or sample within the limits".into(),
+                        hint:
+                            "; clamp the pose with JointLimits::clamp or sample within the limits"
+                                .into(),
                     });
                 }
             }
@@ -287,11 +300,20 @@ mod tests {
 
     #[test]
     fn wrong_lengths_and_nan_are_typed_errors() {
-        assert!(matches!(Pose::from_slice(&[0.0; 71]), Err(Error::WrongLength { got: 71, .. })));
-        assert!(matches!(Pose::from_smplh(&[0.0; 100]), Err(Error::WrongLength { got: 100, .. })));
+        assert!(matches!(
+            Pose::from_slice(&[0.0; 71]),
+            Err(Error::WrongLength { got: 71, .. })
+        ));
+        assert!(matches!(
+            Pose::from_smplh(&[0.0; 100]),
+            Err(Error::WrongLength { got: 100, .. })
+        ));
         let mut v = vec![0.0; 72];
         v[40] = f64::NAN;
-        assert!(matches!(Pose::from_slice(&v), Err(Error::NonFinite { index: 40, .. })));
+        assert!(matches!(
+            Pose::from_slice(&v),
+            Err(Error::NonFinite { index: 40, .. })
+        ));
         let mut v = vec![0.0; 156];
         v[150] = f64::INFINITY; // even in the dropped hand joints
         assert!(matches!(Pose::from_smplh(&v), Err(Error::NonFinite { .. })));
@@ -338,7 +360,10 @@ mod tests {
         l.validate(&a, 0.0).unwrap();
         let mut big = a.clone();
         big.set_joint(4, Vec3::new(3.0, 0.0, 0.0));
-        assert!(matches!(l.validate(&big, 0.0), Err(Error::OutOfRange { .. })));
+        assert!(matches!(
+            l.validate(&big, 0.0),
+            Err(Error::OutOfRange { .. })
+        ));
         l.validate(&l.clamp(&big), 0.0).unwrap();
     }
 

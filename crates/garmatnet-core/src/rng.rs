@@ -43,7 +43,7 @@ impl SplitMix64 {
     /// If `n == 0`.
     pub fn below(&mut self, n: usize) -> usize {
         assert!(n > 0, "SplitMix64::below(0)");
-        ((self.next_u64() >> 32) * n as u64 >> 32) as usize
+        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
     }
 
     /// A standard normal sample (Box–Muller).
@@ -92,6 +92,9 @@ mod tests {
         let mut s = v.clone();
         s.sort_unstable();
         assert_eq!(s, (0..100).collect::<Vec<_>>());
-        assert_ne!(v, s, "a 100-element shuffle leaving everything in place is astronomically unlikely");
+        assert_ne!(
+            v, s,
+            "a 100-element shuffle leaving everything in place is astronomically unlikely"
+        );
     }
 }

@@ -59,7 +59,10 @@ mod tests {
 
     #[test]
     fn sphere_distance_projection() {
-        let s = Sphere { centre: Vec3::new(0.0, 1.0, 0.0), radius: 0.5 };
+        let s = Sphere {
+            centre: Vec3::new(0.0, 1.0, 0.0),
+            radius: 0.5,
+        };
         assert_relative_eq!(s.distance(&Vec3::new(0.0, 2.0, 0.0)), 0.5);
         assert_relative_eq!(s.distance(&Vec3::new(0.0, 1.0, 0.0)), -0.5);
         let p = s.project(&Vec3::new(1.0, 1.0, 0.0));

@@ -117,7 +117,9 @@ impl Skeleton {
     /// SMPL's mean neutral body's skeleton (metres, y up, facing +z).
     #[must_use]
     pub fn smpl_neutral() -> Self {
-        Self { rest_joints: SMPL_NEUTRAL_JOINTS.map(|[x, y, z]| Vec3::new(x, y, z)) }
+        Self {
+            rest_joints: SMPL_NEUTRAL_JOINTS.map(|[x, y, z]| Vec3::new(x, y, z)),
+        }
     }
 
     /// A skeleton with custom rest joints (world positions in the rest pose, metres).
@@ -164,7 +166,12 @@ impl Skeleton {
     pub fn skinning_transforms(&self, pose: &Pose) -> [Iso3; JOINT_COUNT] {
         let world = self.world_transforms(pose);
         std::array::from_fn(|j| {
-            world[j] * Iso3::translation(-self.rest_joints[j].x, -self.rest_joints[j].y, -self.rest_joints[j].z)
+            world[j]
+                * Iso3::translation(
+                    -self.rest_joints[j].x,
+                    -self.rest_joints[j].y,
+                    -self.rest_joints[j].z,
+                )
         })
     }
 }
@@ -173,9 +180,15 @@ impl Skeleton {
 ///
 /// Weights are expected to sum to one; they are not renormalised here.
 #[must_use]
-pub fn blend_point(transforms: &[Iso3; JOINT_COUNT], weights: &[(usize, Real)], rest: &Vec3) -> Vec3 {
+pub fn blend_point(
+    transforms: &[Iso3; JOINT_COUNT],
+    weights: &[(usize, Real)],
+    rest: &Vec3,
+) -> Vec3 {
     let p = nalgebra::Point3::from(*rest);
-    weights.iter().fold(Vec3::zeros(), |acc, &(j, w)| acc + (transforms[j] * p).coords * w)
+    weights.iter().fold(Vec3::zeros(), |acc, &(j, w)| {
+        acc + (transforms[j] * p).coords * w
+    })
 }
 
 #[cfg(test)]
@@ -200,7 +213,11 @@ mod tests {
             assert_relative_eq!(a, b, epsilon = 1e-12);
         }
         for t in s.skinning_transforms(&Pose::zero()) {
-            assert_relative_eq!(t.to_homogeneous(), Iso3::identity().to_homogeneous(), epsilon = 1e-12);
+            assert_relative_eq!(
+                t.to_homogeneous(),
+                Iso3::identity().to_homogeneous(),
+                epsilon = 1e-12
+            );
         }
     }
 
@@ -208,17 +225,28 @@ mod tests {
     fn bending_the_left_elbow_moves_only_the_forearm_chain() {
         let s = Skeleton::smpl_neutral();
         let mut pose = Pose::zero();
-        pose.set_joint(joint_index("left_elbow").unwrap(), Vec3::new(0.0, -1.2, 0.0));
+        pose.set_joint(
+            joint_index("left_elbow").unwrap(),
+            Vec3::new(0.0, -1.2, 0.0),
+        );
         let posed = s.posed_joints(&pose);
         let wrist = joint_index("left_wrist").unwrap();
         let elbow = joint_index("left_elbow").unwrap();
         assert_relative_eq!(posed[elbow], s.rest_joints()[elbow], epsilon = 1e-12);
         // Bone length is preserved, and a negative y rotation brings the forearm forward (+z).
         let rest_len = (s.rest_joints()[wrist] - s.rest_joints()[elbow]).norm();
-        assert_relative_eq!((posed[wrist] - posed[elbow]).norm(), rest_len, epsilon = 1e-12);
+        assert_relative_eq!(
+            (posed[wrist] - posed[elbow]).norm(),
+            rest_len,
+            epsilon = 1e-12
+        );
         assert!(posed[wrist].z > s.rest_joints()[wrist].z + 0.1);
         let right_wrist = joint_index("right_wrist").unwrap();
-        assert_relative_eq!(posed[right_wrist], s.rest_joints()[right_wrist], epsilon = 1e-12);
+        assert_relative_eq!(
+            posed[right_wrist],
+            s.rest_joints()[right_wrist],
+            epsilon = 1e-12
+        );
     }
 
     #[test]
@@ -229,9 +257,9 @@ mod tests {
         pose.set_joint(16, Vec3::new(0.3, -0.2, -0.9));
         let a = s.skinning_transforms(&pose);
         let posed = s.posed_joints(&pose);
-        for j in 0..JOINT_COUNT {
+        for (j, expected) in posed.iter().enumerate() {
             let p = blend_point(&a, &[(j, 1.0)], &s.rest_joints()[j]);
-            assert_relative_eq!(p, posed[j], epsilon = 1e-12);
+            assert_relative_eq!(p, *expected, epsilon = 1e-12);
         }
     }
 }

@@ -1,19 +1,35 @@
 //! The mass-spring drape solver that makes garmatnet's ground truth, and dataset generation.
 //!
 //! [`ClothModel`] holds Provot's mass-spring cloth; [`DrapeSolver`] drapes it to static
-//! equilibrium on any [`garmatnet_core::SignedDistance`] collider with projective dynamics
-//! (Liu et al. 2013), contact and friction inside the implicit solve.
+//! equilibrium on any [`garmatnet_core::SignedDistance`] collider.
 
 pub mod cloth_model;
 pub mod contact;
+pub mod dataset;
+pub mod dataset_reader;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
 pub mod grid_sheet;
+pub mod manifest;
+pub mod motion;
+pub mod sample_arrays;
+pub mod shard;
 
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
+pub use dataset::{DatasetWriter, scan_samples};
+pub use dataset_reader::{DatasetReader, DatasetReport, Summary, check};
 pub use drape_settings::DrapeSettings;
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
 pub use grid_sheet::{SheetStiffness, grid_sheet};
+pub use manifest::{
+    BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, Manifest, MaterialEntry, SampleRecord,
+    SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
+};
+pub use motion::{
+    MotionGenerator, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
+};
+pub use sample_arrays::SampleArrays;
+pub use shard::{Shard, merge_shards};

@@ -1,0 +1,375 @@
+//! Reading and checking a dataset written by [`crate::DatasetWriter`] (layout in
+//! [`crate::dataset`]).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use garmatnet_core::{Error, Result};
+
+use crate::dataset::{samples_dir, scan_samples};
+use crate::manifest::{DatasetSpec, Manifest, SampleRecord};
+use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
+
+/// A dataset opened for reading. Samples come from their completion markers, so a directory
+/// whose manifest is stale (a killed run, merged shards) reads completely.
+#[derive(Debug, Clone)]
+pub struct DatasetReader {
+    dir: PathBuf,
+    spec: DatasetSpec,
+    samples: Vec<SampleRecord>,
+}
+
+impl DatasetReader {
+    /// Opens `dir`: validates the manifest (format version, counts) and lists the finished
+    /// samples. Arrays are read and checked lazily by [`DatasetReader::read_sample`].
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the manifest cannot be read; [`Error::Parse`] for a malformed
+    /// manifest, an unknown format version or a malformed marker.
+    pub fn open(dir: impl AsRef<Path>) -> Result<Self> {
+        let dir = dir.as_ref().to_owned();
+        let spec = Manifest::read(&dir)?.spec;
+        let samples = scan_samples(&dir, &spec)?;
+        Ok(Self { dir, spec, samples })
+    }
+
+    /// The dataset directory.
+    #[must_use]
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// What the dataset contains (template, body, materials, poses, settings).
+    #[must_use]
+    pub fn spec(&self) -> &DatasetSpec {
+        &self.spec
+    }
+
+    /// The finished samples, sorted by (material, pose).
+    #[must_use]
+    pub fn samples(&self) -> &[SampleRecord] {
+        &self.samples
+    }
+
+    /// The finished sample (`material`, `pose`), if any.
+    #[must_use]
+    pub fn sample(&self, material: usize, pose: usize) -> Option<&SampleRecord> {
+        self.samples
+            .binary_search_by_key(&(material, pose), |r| (r.material, r.pose))
+            .ok()
+            .map(|i| &self.samples[i])
+    }
+
+    /// Reads and checks one sample's arrays.
+    ///
+    /// # Shapes
+    /// `simulated`, `smoothed`: `[vertex_count, 3]`; `body`: `[m, 3]`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if an array file is missing; [`Error::Parse`] naming the file and sample
+    /// for a corrupt file, wrong dtype or shape (including a row count other than the
+    /// template's `vertex_count`) or a NaN/infinite value.
+    pub fn read_sample(&self, record: &SampleRecord) -> Result<SampleArrays> {
+        let (arrays, _) = self.read_arrays(record)?;
+        if let Some((name, index)) = first_non_finite(&arrays) {
+            return Err(Error::Parse {
+                path: self.array_path(record, name),
+                line: None,
+                message: format!(
+                    "sample {}: non-finite value (NaN or infinity) at flat index {index}; \
+                     regenerate the sample",
+                    record.stem
+                ),
+            });
+        }
+        Ok(arrays)
+    }
+
+    fn array_path(&self, record: &SampleRecord, name: &str) -> PathBuf {
+        samples_dir(&self.dir)
+            .join(&record.stem)
+            .join(format!("{name}.npy"))
+    }
+
+    /// Reads the arrays with shape checks only; also returns the NaN/infinity count.
+    fn read_arrays(&self, record: &SampleRecord) -> Result<(SampleArrays, usize)> {
+        let read = |name: &str| -> Result<Vec<[f32; 3]>> {
+            let path = self.array_path(record, name);
+            let points = read_points_npy(&path, &record.stem)?;
+            let n = self.spec.template.vertex_count;
+            if name != "body" && points.len() != n {
+                return Err(Error::Parse {
+                    path,
+                    line: None,
+                    message: format!(
+                        "sample {}: {name} has {} rows; the template has {n} vertices",
+                        record.stem,
+                        points.len()
+                    ),
+                });
+            }
+            Ok(points)
+        };
+        let [simulated, smoothed, body] = ARRAY_NAMES;
+        let (simulated, smoothed, body) = (read(simulated)?, read(smoothed)?, read(body)?);
+        let arrays = SampleArrays {
+            simulated,
+            smoothed,
+            body,
+        };
+        let non_finite = arrays
+            .by_name()
+            .iter()
+            .map(|(_, p)| p.as_flattened().iter().filter(|v| !v.is_finite()).count())
+            .sum();
+        Ok((arrays, non_finite))
+    }
+}
+
+fn first_non_finite(arrays: &SampleArrays) -> Option<(&'static str, usize)> {
+    arrays.by_name().into_iter().find_map(|(name, p)| {
+        p.as_flattened()
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|i| (name, i))
+    })
+}
+
+/// Minimum, mean and maximum of a statistic over the finished samples (all 0 when none).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Summary {
+    /// Smallest value.
+    pub min: f64,
+    /// Mean value.
+    pub mean: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Summary {
+    fn of(values: impl Iterator<Item = f64>) -> Self {
+        let v: Vec<f64> = values.collect();
+        if v.is_empty() {
+            return Self::default();
+        }
+        Self {
+            min: v.iter().copied().fold(f64::INFINITY, f64::min),
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            max: v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+}
+
+/// What [`check`] found in a dataset directory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetReport {
+    /// Number of materials.
+    pub materials: usize,
+    /// Number of poses.
+    pub poses: usize,
+    /// Finished samples (with a completion marker).
+    pub complete: usize,
+    /// Samples not finished yet, as (material, pose).
+    pub missing: Vec<(usize, usize)>,
+    /// Finished samples whose arrays are unreadable or mis-shaped, with the reason.
+    pub corrupt: Vec<(String, String)>,
+    /// Total NaN/infinite values over all readable arrays.
+    pub non_finite_values: usize,
+    /// Finished samples whose solver did not converge.
+    pub not_converged: usize,
+    /// Solver residuals.
+    pub residual: Summary,
+    /// Deepest penetrations (metres).
+    pub max_penetration_m: Summary,
+    /// Largest edge strains.
+    pub max_strain: Summary,
+}
+
+impl DatasetReport {
+    /// Whether the dataset is complete and every sample is readable and finite.
+    #[must_use]
+    pub fn is_ok(&self) -> bool {
+        self.missing.is_empty() && self.corrupt.is_empty() && self.non_finite_values == 0
+    }
+}
+
+impl fmt::Display for DatasetReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let expected = self.materials * self.poses;
+        writeln!(
+            f,
+            "{} materials x {} poses = {expected} samples",
+            self.materials, self.poses
+        )?;
+        writeln!(
+            f,
+            "complete: {}, missing: {}",
+            self.complete,
+            self.missing.len()
+        )?;
+        if let Some((m, p)) = self.missing.first() {
+            writeln!(f, "  first missing: material {m}, pose {p}")?;
+        }
+        writeln!(f, "corrupt: {}", self.corrupt.len())?;
+        for (stem, why) in self.corrupt.iter().take(10) {
+            writeln!(f, "  {stem}: {why}")?;
+        }
+        writeln!(f, "non-finite values: {}", self.non_finite_values)?;
+        writeln!(f, "not converged: {}", self.not_converged)?;
+        let s = |x: &Summary| format!("min {:.3e}, mean {:.3e}, max {:.3e}", x.min, x.mean, x.max);
+        writeln!(f, "residual: {}", s(&self.residual))?;
+        writeln!(f, "max penetration (m): {}", s(&self.max_penetration_m))?;
+        write!(f, "max strain: {}", s(&self.max_strain))
+    }
+}
+
+/// Reads every finished sample of `dir` and reports counts, missing and corrupt samples, NaN
+/// values and solver statistics (what `garmatnet dataset check` prints).
+///
+/// # Errors
+/// As [`DatasetReader::open`]; problems with individual samples go into the report.
+pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
+    let reader = DatasetReader::open(dir)?;
+    let spec = reader.spec();
+    let mut corrupt = Vec::new();
+    let mut non_finite_values = 0;
+    for record in reader.samples() {
+        match reader.read_arrays(record) {
+            Ok((_, bad)) => non_finite_values += bad,
+            Err(e) => corrupt.push((record.stem.clone(), e.to_string())),
+        }
+    }
+    let missing = (0..spec.materials.len())
+        .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
+        .filter(|&(m, p)| reader.sample(m, p).is_none())
+        .collect();
+    let stats = || reader.samples().iter().map(|r| &r.stats);
+    Ok(DatasetReport {
+        materials: spec.materials.len(),
+        poses: spec.poses.len(),
+        complete: reader.samples().len(),
+        missing,
+        corrupt,
+        non_finite_values,
+        not_converged: stats().filter(|s| !s.converged).count(),
+        residual: Summary::of(stats().map(|s| s.residual)),
+        max_penetration_m: Summary::of(stats().map(|s| s.max_penetration_m)),
+        max_strain: Summary::of(stats().map(|s| s.max_strain)),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::DatasetWriter;
+    use crate::dataset::tests::{VERTICES, arrays, stats, tiny_spec};
+    use crate::sample_arrays::write_points_npy;
+    use npyz::WriterBuilder;
+
+    fn full_dataset(dir: &Path) {
+        let w = DatasetWriter::open(dir, tiny_spec()).unwrap();
+        for m in 0..3 {
+            for p in 0..4 {
+                w.write_sample(m, p, &arrays(m, p), stats((m * 4 + p) as f64))
+                    .unwrap();
+            }
+        }
+    }
+
+    fn sample_file(dir: &Path, stem: &str, name: &str) -> PathBuf {
+        samples_dir(dir).join(stem).join(format!("{name}.npy"))
+    }
+
+    #[test]
+    fn reads_back_what_was_written_and_checks_clean() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let r = DatasetReader::open(dir.path()).unwrap();
+        assert_eq!(r.samples().len(), 12);
+        assert_eq!(
+            r.read_sample(r.sample(2, 1).unwrap()).unwrap(),
+            arrays(2, 1)
+        );
+        let report = check(dir.path()).unwrap();
+        assert!(report.is_ok(), "{report}");
+        assert_eq!((report.complete, report.missing.len()), (12, 0));
+        assert_eq!(report.residual.max, 11.0);
+        assert!((report.residual.mean - 5.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn corrupt_wrong_shape_and_nan_samples_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let d = dir.path();
+        std::fs::write(sample_file(d, "m000_p0001", "smoothed"), b"not an npy").unwrap();
+        write_points_npy(
+            &sample_file(d, "m001_p0002", "simulated"),
+            &[[0.0; 3]; VERTICES - 1],
+        )
+        .unwrap();
+        let mut nan = arrays(2, 3).body;
+        nan[1][0] = f32::NAN;
+        nan[2][2] = f32::INFINITY;
+        write_points_npy(&sample_file(d, "m002_p0003", "body"), &nan).unwrap();
+        // A float64 array where float32 is required.
+        let mut f64_bytes = Vec::new();
+        let mut w = npyz::WriteOptions::<f64>::new()
+            .default_dtype()
+            .shape(&[VERTICES as u64, 3])
+            .writer(&mut f64_bytes)
+            .begin_nd()
+            .unwrap();
+        w.extend(std::iter::repeat_n(0.0, VERTICES * 3)).unwrap();
+        w.finish().unwrap();
+        std::fs::write(sample_file(d, "m001_p0000", "smoothed"), f64_bytes).unwrap();
+
+        let r = DatasetReader::open(d).unwrap();
+        for (m, p, stem, needle) in [
+            (0, 1, "m000_p0001", "not a valid .npy"),
+            (1, 2, "m001_p0002", "9 rows"),
+            (2, 3, "m002_p0003", "non-finite"),
+            (1, 0, "m001_p0000", "float32"),
+        ] {
+            let err = r.read_sample(r.sample(m, p).unwrap()).unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, Error::Parse { .. }), "{text}");
+            assert!(text.contains(stem) && text.contains(needle), "{text}");
+        }
+        std::fs::remove_dir_all(samples_dir(d).join("m002_p0000")).unwrap();
+        let report = check(d).unwrap();
+        assert!(!report.is_ok());
+        assert_eq!(report.complete, 11);
+        assert_eq!(report.missing, vec![(2, 0)]);
+        let corrupt: Vec<&str> = report.corrupt.iter().map(|(s, _)| s.as_str()).collect();
+        assert_eq!(corrupt, vec!["m000_p0001", "m001_p0000", "m001_p0002"]);
+        assert_eq!(report.non_finite_values, 2);
+    }
+
+    #[test]
+    fn unknown_format_version_and_bad_markers_are_typed_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        full_dataset(dir.path());
+        let marker = samples_dir(dir.path())
+            .join("m000_p0000")
+            .join("stats.json");
+        std::fs::write(&marker, b"{\"material\": 1}").unwrap();
+        let err = DatasetReader::open(dir.path()).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }) && err.to_string().contains("m000_p0000"));
+
+        let path = crate::manifest::manifest_path(dir.path());
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(
+            &path,
+            text.replacen("\"format_version\": 1", "\"format_version\": 2", 1),
+        )
+        .unwrap();
+        let err = DatasetReader::open(dir.path()).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }) && err.to_string().contains("format_version"));
+        std::fs::write(&path, b"{").unwrap();
+        assert!(matches!(
+            DatasetReader::open(dir.path()),
+            Err(Error::Parse { .. })
+        ));
+    }
+}

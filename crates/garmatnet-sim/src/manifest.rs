@@ -1,0 +1,259 @@
+//! The dataset manifest (`DIR/manifest.json`) and the per-sample completion marker; see
+//! [`crate::dataset`] for the whole on-disk layout.
+
+use std::path::{Path, PathBuf};
+
+use garmatnet_core::{Error, Pose, Result};
+use serde::{Deserialize, Serialize};
+
+/// The on-disk format version this crate reads and writes.
+pub const DATASET_FORMAT_VERSION: u32 = 1;
+
+/// The T-shirt template every sample deforms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TemplateInfo {
+    /// The template's resolution preset, as named by the garment generator.
+    pub resolution: String,
+    /// Vertices per garment (`n` of every `simulated`/`smoothed` array).
+    pub vertex_count: usize,
+    /// A content hash of the template mesh (hex); samples of different templates never mix.
+    pub hash: String,
+}
+
+/// The body the garments were draped on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BodyInfo {
+    /// The body model's name, e.g. `"capsule-smpl-neutral"`.
+    pub name: String,
+}
+
+/// One fabric of the dataset, by value so the dataset does not depend on a preset library.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialEntry {
+    /// The material's name (unique within the dataset).
+    pub name: String,
+    /// Physical parameters ω: structural vertical and horizontal, flexion vertical and
+    /// horizontal, shear stiffness (N/m) and density (kg/m²).
+    pub omega: [f64; 6],
+    /// ω mapped to the network's normalised input range.
+    pub omega_normalized: [f64; 6],
+}
+
+/// The Laplacian smoothing that produced the `smoothed` arrays.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SmoothingInfo {
+    /// Smoothing strength λ per iteration.
+    pub lambda: f64,
+    /// Number of smoothing iterations.
+    pub iterations: u32,
+    /// The Laplacian weighting scheme, e.g. `"uniform"` or `"cotangent"`.
+    pub weights: String,
+}
+
+/// What the solver reported for one sample.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleStats {
+    /// Solver iterations used.
+    pub iterations: u64,
+    /// Final residual (solver-defined norm, N).
+    pub residual: f64,
+    /// Deepest garment penetration into the body (metres, ≥ 0).
+    pub max_penetration_m: f64,
+    /// Largest edge strain (relative length change, dimensionless).
+    pub max_strain: f64,
+    /// Wall-clock time of the solve (milliseconds).
+    pub wall_time_ms: f64,
+    /// Whether the solver met its tolerance.
+    pub converged: bool,
+}
+
+/// A finished sample: the material and pose it drapes, where its arrays are, and its stats.
+/// Written as the sample's `stats.json` completion marker and listed in the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleRecord {
+    /// Index into [`DatasetSpec::materials`].
+    pub material: usize,
+    /// Index into [`DatasetSpec::poses`].
+    pub pose: usize,
+    /// The sample's directory name under `DIR/samples/` ([`sample_stem`]).
+    pub stem: String,
+    /// The solver's report.
+    pub stats: SampleStats,
+}
+
+/// Everything that defines a dataset before any sample exists: written once into the
+/// manifest; a resumed or merged run must match it exactly.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DatasetSpec {
+    /// The garment template.
+    pub template: TemplateInfo,
+    /// The body model.
+    pub body: BodyInfo,
+    /// The fabrics; samples refer to them by index.
+    pub materials: Vec<MaterialEntry>,
+    /// The poses (each a 72-vector); samples refer to them by index.
+    pub poses: Vec<Pose>,
+    /// For each pose, its frame index in the source sequence (for train/test splits).
+    pub frames: Vec<usize>,
+    /// The solver settings, as the solver serialises them.
+    pub solver: serde_json::Value,
+    /// The smoothing that produced the `smoothed` arrays.
+    pub smoothing: SmoothingInfo,
+}
+
+/// The content of `DIR/manifest.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Always [`DATASET_FORMAT_VERSION`].
+    pub format_version: u32,
+    /// What the dataset contains.
+    #[serde(flatten)]
+    pub spec: DatasetSpec,
+    /// The finished samples, sorted by (material, pose).
+    pub samples: Vec<SampleRecord>,
+}
+
+impl DatasetSpec {
+    /// Checks that the spec is self-consistent.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for no materials or poses, a zero vertex count, duplicate
+    /// material names or non-finite ω; [`Error::Mismatch`] if `frames` and `poses` differ in
+    /// length.
+    pub fn validate(&self) -> Result<()> {
+        if self.materials.is_empty() || self.poses.is_empty() || self.template.vertex_count == 0 {
+            return Err(Error::InvalidArgument(format!(
+                "a dataset needs at least one material, one pose and one template vertex \
+                 (got {} materials, {} poses, {} vertices)",
+                self.materials.len(),
+                self.poses.len(),
+                self.template.vertex_count
+            )));
+        }
+        if self.frames.len() != self.poses.len() {
+            return Err(Error::Mismatch {
+                what: "dataset frame indices (one per pose)".into(),
+                expected: self.poses.len().to_string(),
+                got: self.frames.len().to_string(),
+            });
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if self.materials[..i].iter().any(|o| o.name == m.name) {
+                return Err(Error::InvalidArgument(format!(
+                    "material name `{}` appears twice; names must be unique",
+                    m.name
+                )));
+            }
+            if m.omega
+                .iter()
+                .chain(&m.omega_normalized)
+                .any(|v| !v.is_finite())
+            {
+                return Err(Error::InvalidArgument(format!(
+                    "material `{}` has a non-finite parameter",
+                    m.name
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Manifest {
+    /// Reads and validates `DIR/manifest.json`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if it cannot be read; [`Error::Parse`] for malformed JSON, an unknown
+    /// format version or an inconsistent spec.
+    pub fn read(dir: &Path) -> Result<Self> {
+        let path = manifest_path(dir);
+        let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+        let parse = |line, message| Error::Parse {
+            path: path.clone(),
+            line,
+            message,
+        };
+        let version: serde_json::Value = serde_json::from_slice(&bytes)
+            .map_err(|e| parse(Some(e.line()), format!("not valid JSON: {e}")))?;
+        let found = version
+            .get("format_version")
+            .and_then(serde_json::Value::as_u64);
+        if found != Some(u64::from(DATASET_FORMAT_VERSION)) {
+            return Err(parse(
+                None,
+                format!(
+                    "format_version is {found:?}; this garmatnet reads version \
+                     {DATASET_FORMAT_VERSION}: regenerate the dataset"
+                ),
+            ));
+        }
+        let manifest: Manifest = serde_json::from_value(version)
+            .map_err(|e| parse(None, format!("not a garmatnet dataset manifest: {e}")))?;
+        manifest
+            .spec
+            .validate()
+            .map_err(|e| parse(None, e.to_string()))?;
+        Ok(manifest)
+    }
+
+    /// Writes `DIR/manifest.json` atomically.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the directory is not writable.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let path = manifest_path(dir);
+        let bytes = serde_json::to_vec_pretty(self).map_err(|e| Error::io(&path, e.into()))?;
+        garmatnet_core::write_bytes_atomic(&path, &bytes)
+    }
+}
+
+/// `DIR/manifest.json`.
+#[must_use]
+pub fn manifest_path(dir: &Path) -> PathBuf {
+    dir.join("manifest.json")
+}
+
+/// The directory name of sample (`material`, `pose`): `m{material:03}_p{pose:04}`, e.g.
+/// `m003_p0123` (more digits when the indices need them).
+#[must_use]
+pub fn sample_stem(material: usize, pose: usize) -> String {
+    format!("m{material:03}_p{pose:04}")
+}
+
+/// The inverse of [`sample_stem`]: `Some((material, pose))` for a well-formed stem.
+#[must_use]
+pub fn parse_sample_stem(stem: &str) -> Option<(usize, usize)> {
+    let (m, p) = stem.strip_prefix('m')?.split_once("_p")?;
+    let all_digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    if !all_digits(m) || !all_digits(p) {
+        return None;
+    }
+    let parsed = (m.parse().ok()?, p.parse().ok()?);
+    // Only the canonical spelling, so one sample never has two directories.
+    (sample_stem(parsed.0, parsed.1) == stem).then_some(parsed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stems_round_trip_and_reject_variants() {
+        assert_eq!(sample_stem(3, 123), "m003_p0123");
+        assert_eq!(parse_sample_stem("m003_p0123"), Some((3, 123)));
+        assert_eq!(
+            parse_sample_stem(&sample_stem(1234, 56789)),
+            Some((1234, 56789))
+        );
+        for bad in [
+            "m3_p123",
+            "m003_p0123.tmp",
+            "x003_p0123",
+            "m003p0123",
+            "m_p",
+            "m-01_p0001",
+        ] {
+            assert_eq!(parse_sample_stem(bad), None, "{bad}");
+        }
+    }
+}

@@ -1,0 +1,462 @@
+//! A procedural, seeded "dance": smooth sequences of static poses within the joint limits.
+//!
+//! The dataset needs many poses that (a) stay inside [`JointLimits`] so the solver can drape
+//! them, (b) change by only a few degrees from frame to frame so the solver can walk from one
+//! static pose to the next, and (c) never repeat, so that holding out every 10th frame tests
+//! generalisation to poses between, not copies of, the training poses.
+//!
+//! [`MotionGenerator`] draws keyframes every 8–15 frames, each with one or two
+//! [`MotionTheme`]s (arm raises, arm swings, torso bends and twists, leg steps, neutral) over
+//! a small random background, and joins them with a C¹ cubic Hermite spline (Catmull-Rom
+//! tangents over non-uniform keyframe times) of the axis-angle components. Segments are
+//! lengthened until no joint moves more than `max_step_rad` per frame; every frame is then
+//! clamped into the limits, which can only shorten steps.
+
+use garmatnet_core::{
+    Error, JOINT_COUNT, JOINT_NAMES, JointLimits, POSE_DIM, Pose, Real, Result, SplitMix64, Vec3,
+};
+
+/// What a keyframe emphasises; the other joints keep small background motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionTheme {
+    /// Only the small background motion.
+    Neutral,
+    /// Arms raised or lowered (shoulder abduction, elbow bend, collars).
+    ArmRaise,
+    /// Arms swung forward/back and twisted (shoulder flexion and twist, elbows, wrists).
+    ArmSwing,
+    /// Torso bent forward/back and sideways (spine, pelvis, neck).
+    TorsoBend,
+    /// Torso twisted about the vertical (spine, pelvis and head twist).
+    TorsoTwist,
+    /// A step or kick: hips, knees and ankles.
+    LegStep,
+}
+
+impl MotionTheme {
+    const ALL: [MotionTheme; 6] = [
+        MotionTheme::Neutral,
+        MotionTheme::ArmRaise,
+        MotionTheme::ArmSwing,
+        MotionTheme::TorsoBend,
+        MotionTheme::TorsoTwist,
+        MotionTheme::LegStep,
+    ];
+
+    /// The (joint name, component mask x/y/z) pairs this theme drives over the full range.
+    fn joints(self) -> &'static [(&'static str, [bool; 3])] {
+        const ALL: [bool; 3] = [true, true, true];
+        match self {
+            MotionTheme::Neutral => &[],
+            MotionTheme::ArmRaise => &[
+                ("left_shoulder", [false, true, true]),
+                ("right_shoulder", [false, true, true]),
+                ("left_elbow", [false, true, false]),
+                ("right_elbow", [false, true, false]),
+                ("left_collar", [false, false, true]),
+                ("right_collar", [false, false, true]),
+            ],
+            MotionTheme::ArmSwing => &[
+                ("left_shoulder", [true, true, false]),
+                ("right_shoulder", [true, true, false]),
+                ("left_elbow", ALL),
+                ("right_elbow", ALL),
+                ("left_wrist", ALL),
+                ("right_wrist", ALL),
+            ],
+            MotionTheme::TorsoBend => &[
+                ("pelvis", [true, false, true]),
+                ("spine1", [true, false, true]),
+                ("spine2", [true, false, true]),
+                ("spine3", [true, false, true]),
+                ("neck", [true, false, true]),
+            ],
+            MotionTheme::TorsoTwist => &[
+                ("pelvis", [false, true, false]),
+                ("spine1", [false, true, false]),
+                ("spine2", [false, true, false]),
+                ("spine3", [false, true, false]),
+                ("head", [false, true, false]),
+            ],
+            MotionTheme::LegStep => &[
+                ("left_hip", ALL),
+                ("right_hip", ALL),
+                ("left_knee", [true, false, false]),
+                ("right_knee", [true, false, false]),
+                ("left_ankle", [true, false, false]),
+                ("right_ankle", [true, false, false]),
+            ],
+        }
+    }
+}
+
+/// Settings of the procedural dance. Build with [`MotionGenerator::new`] and adjust fields.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionGenerator {
+    /// Seed: the same seed and settings always give bit-identical poses.
+    pub seed: u64,
+    /// Number of frames to generate.
+    pub frames: usize,
+    /// Range of frames between keyframes before lengthening for `max_step_rad` (default 8–15).
+    pub keyframe_spacing: (Real, Real),
+    /// Largest rotation (radians) of any joint between consecutive frames (default 0.1).
+    pub max_step_rad: Real,
+    /// Fraction ∈ [0, 1] of each joint's range that themed joints may use (default 0.9).
+    pub amplitude: Real,
+    /// Fraction ∈ [0, 1] of each range used by the background motion of all joints
+    /// (default 0.15).
+    pub background_amplitude: Real,
+    /// The limits every frame satisfies (default [`JointLimits::default`]).
+    pub limits: JointLimits,
+}
+
+impl MotionGenerator {
+    /// A generator of `frames` frames from `seed` with the default settings.
+    #[must_use]
+    pub fn new(seed: u64, frames: usize) -> Self {
+        Self {
+            seed,
+            frames,
+            keyframe_spacing: (8.0, 15.0),
+            max_step_rad: 0.1,
+            amplitude: 0.9,
+            background_amplitude: 0.15,
+            limits: JointLimits::default(),
+        }
+    }
+
+    /// The pose sequence: `frames` poses within `limits`, consecutive frames differing by at
+    /// most `max_step_rad` per joint.
+    #[must_use]
+    pub fn generate(&self) -> Vec<Pose> {
+        if self.frames == 0 {
+            return Vec::new();
+        }
+        let mut rng = SplitMix64::new(self.seed);
+        let (lo, hi) = self.keyframe_spacing;
+        let lo = if lo.is_finite() { lo.max(1.0) } else { 8.0 };
+        let hi = if hi.is_finite() { hi.max(lo) } else { lo };
+        let max_step = if self.max_step_rad.is_finite() && self.max_step_rad > 0.0 {
+            self.max_step_rad
+        } else {
+            0.1
+        };
+        // Durations only ever grow, so this many keyframes always cover the sequence.
+        let count = (self.frames as Real / lo).ceil() as usize + 3;
+        let keys: Vec<[Real; POSE_DIM]> = (0..count).map(|_| self.keyframe(&mut rng)).collect();
+        let mut durations: Vec<Real> = (0..count - 1).map(|_| rng.uniform(lo, hi)).collect();
+
+        let mut frames = evaluate(&keys, &durations, self.frames);
+        // Speed scales like 1/duration: lengthen each too-fast segment until all steps fit.
+        for _ in 0..64 {
+            let times = knot_times(&durations);
+            let mut fastest = vec![0.0; durations.len()];
+            for t in 1..self.frames {
+                let segment = segment_of(&times, t as Real - 0.5);
+                let step = max_joint_step(&frames[t - 1], &frames[t]);
+                fastest[segment] = Real::max(fastest[segment], step);
+            }
+            let mut violated = false;
+            for (duration, step) in durations.iter_mut().zip(fastest) {
+                if step > max_step {
+                    *duration *= step / max_step * 1.02;
+                    violated = true;
+                }
+            }
+            if !violated {
+                break;
+            }
+            frames = evaluate(&keys, &durations, self.frames);
+        }
+        frames
+            .iter()
+            .map(|values| {
+                let pose = Pose::from_slice(values).unwrap_or_default();
+                self.limits.clamp(&pose)
+            })
+            .collect()
+    }
+
+    /// One keyframe: background motion of every joint plus one or two themes at full range.
+    fn keyframe(&self, rng: &mut SplitMix64) -> [Real; POSE_DIM] {
+        let background = self
+            .limits
+            .sample(rng, self.background_amplitude.clamp(0.0, 1.0));
+        let background = background.to_vec();
+        let mut values: [Real; POSE_DIM] = std::array::from_fn(|i| background[i]);
+        let primary = MotionTheme::ALL[rng.below(MotionTheme::ALL.len())];
+        let secondary = (rng.next_f64() < 0.5).then(|| MotionTheme::ALL[rng.below(6)]);
+        let amplitude = self.amplitude.clamp(0.0, 1.0);
+        for theme in std::iter::once(primary).chain(secondary) {
+            for (name, mask) in theme.joints() {
+                let Some(j) = JOINT_NAMES.iter().position(|n| n == name) else {
+                    continue;
+                };
+                for c in 0..3 {
+                    if mask[c] {
+                        let (lo, hi) = (self.limits.min[j][c], self.limits.max[j][c]);
+                        let centre = 0.0_f64.clamp(lo, hi);
+                        values[3 * j + c] = rng.uniform(
+                            centre + (lo - centre) * amplitude,
+                            centre + (hi - centre) * amplitude,
+                        );
+                    }
+                }
+            }
+        }
+        values
+    }
+}
+
+fn knot_times(durations: &[Real]) -> Vec<Real> {
+    std::iter::once(0.0)
+        .chain(durations.iter().scan(0.0, |t, d| {
+            *t += d;
+            Some(*t)
+        }))
+        .collect()
+}
+
+fn segment_of(times: &[Real], t: Real) -> usize {
+    times
+        .partition_point(|&k| k <= t)
+        .saturating_sub(1)
+        .min(times.len() - 2)
+}
+
+/// Samples the cubic Hermite spline through `keys` (at knot times from `durations`) at
+/// frames 0, 1, …, `frames − 1`, with finite-difference (Catmull-Rom) tangents.
+fn evaluate(keys: &[[Real; POSE_DIM]], durations: &[Real], frames: usize) -> Vec<[Real; POSE_DIM]> {
+    let times = knot_times(durations);
+    let n = keys.len();
+    let tangent = |i: usize, c: usize| -> Real {
+        let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+        (keys[b][c] - keys[a][c]) / (times[b] - times[a])
+    };
+    (0..frames)
+        .map(|f| {
+            let t = f as Real;
+            let i = segment_of(&times, t);
+            let d = times[i + 1] - times[i];
+            let s = ((t - times[i]) / d).clamp(0.0, 1.0);
+            let (s2, s3) = (s * s, s * s * s);
+            let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+            let h10 = s3 - 2.0 * s2 + s;
+            let h01 = -2.0 * s3 + 3.0 * s2;
+            let h11 = s3 - s2;
+            std::array::from_fn(|c| {
+                h00 * keys[i][c]
+                    + h10 * d * tangent(i, c)
+                    + h01 * keys[i + 1][c]
+                    + h11 * d * tangent(i + 1, c)
+            })
+        })
+        .collect()
+}
+
+/// The largest per-joint Euclidean distance between axis-angle vectors. It bounds the
+/// rotation angle between them (the exponential map does not increase distances on SO(3)),
+/// and clamping into a box cannot increase it.
+fn max_joint_step(a: &[Real; POSE_DIM], b: &[Real; POSE_DIM]) -> Real {
+    (0..JOINT_COUNT)
+        .map(|j| {
+            let d = Vec3::new(
+                a[3 * j] - b[3 * j],
+                a[3 * j + 1] - b[3 * j + 1],
+                a[3 * j + 2] - b[3 * j + 2],
+            );
+            d.norm()
+        })
+        .fold(0.0, Real::max)
+}
+
+/// How much each joint's rotation counts toward a pose's deviation from rest in
+/// [`extreme_poses`]: the joints that move the T-shirt (arms, torso) dominate.
+fn deviation_weight(joint: usize) -> Real {
+    match JOINT_NAMES[joint] {
+        "left_shoulder" | "right_shoulder" | "left_elbow" | "right_elbow" => 2.0,
+        "left_collar" | "right_collar" | "spine1" | "spine2" | "spine3" | "pelvis" => 1.5,
+        "neck" | "left_hip" | "right_hip" => 0.5,
+        _ => 0.2,
+    }
+}
+
+/// A pose's weighted deviation from the rest pose: Σ_j w_j · |θ_j| (radians), with arm and
+/// torso joints weighted most.
+#[must_use]
+pub fn rest_deviation(pose: &Pose) -> Real {
+    (0..JOINT_COUNT)
+        .map(|j| deviation_weight(j) * pose.joint(j).norm())
+        .sum()
+}
+
+/// The indices of the `k` poses deviating most from rest ([`rest_deviation`]), most extreme
+/// first (ties by index); all indices if `k >= poses.len()`. Used to stress-test the solver.
+#[must_use]
+pub fn extreme_poses(poses: &[Pose], k: usize) -> Vec<usize> {
+    let mut scored: Vec<(usize, Real)> = poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i, rest_deviation(p)))
+        .collect();
+    scored.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    scored.into_iter().take(k).map(|(i, _)| i).collect()
+}
+
+/// Intermediate poses from `from` to `to` (slerp per joint) such that no joint turns more than
+/// `max_step_rad` between consecutive poses. `from` is not included; `to` is the last element
+/// (the result is just `[to]` when the poses are already that close).
+///
+/// # Errors
+/// [`Error::InvalidArgument`] unless `max_step_rad` is finite and positive.
+pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result<Vec<Pose>> {
+    if !(max_step_rad.is_finite() && max_step_rad > 0.0) {
+        return Err(Error::InvalidArgument(format!(
+            "interpolation step must be a positive number of radians, got {max_step_rad}"
+        )));
+    }
+    let total = from.max_joint_angle_to(to);
+    // Slerp turns every joint uniformly in t, so n equal steps of t each turn ≤ total / n.
+    let n = ((total / max_step_rad).ceil() as usize).max(1);
+    Ok((1..=n)
+        .map(|i| {
+            if i == n {
+                to.clone()
+            } else {
+                from.slerp(to, i as Real / n as Real)
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn frames_are_within_limits_and_small_steps() {
+        let g = MotionGenerator::new(11, 400);
+        let poses = g.generate();
+        assert_eq!(poses.len(), 400);
+        for (f, p) in poses.iter().enumerate() {
+            g.limits
+                .validate(p, 0.0)
+                .unwrap_or_else(|e| panic!("frame {f}: {e}"));
+        }
+        let max_step = poses
+            .windows(2)
+            .map(|w| w[0].max_joint_angle_to(&w[1]))
+            .fold(0.0, Real::max);
+        assert!(max_step <= g.max_step_rad + 1e-9, "max step {max_step}");
+        // The dance is not a crawl: the bound is approached somewhere.
+        assert!(max_step > 0.5 * g.max_step_rad, "max step {max_step}");
+    }
+
+    #[test]
+    fn seeded_and_bit_identical() {
+        let a = MotionGenerator::new(3, 120).generate();
+        let b = MotionGenerator::new(3, 120).generate();
+        let bits = |p: &[Pose]| -> Vec<u64> {
+            p.iter().flat_map(Pose::to_vec).map(f64::to_bits).collect()
+        };
+        assert_eq!(bits(&a), bits(&b));
+        let c = MotionGenerator::new(4, 120).generate();
+        assert!(a.iter().zip(&c).any(|(x, y)| x.max_joint_angle_to(y) > 0.1));
+    }
+
+    #[test]
+    fn held_out_frames_are_new_poses_near_their_neighbours() {
+        let poses = MotionGenerator::new(7, 500).generate();
+        let mut far = Vec::new();
+        for f in (10..490).step_by(10) {
+            // The neighbours are close...
+            assert!(poses[f].max_joint_angle_to(&poses[f + 1]) <= 0.1 + 1e-9);
+            // ...but no training frame outside a ±5-frame window nearly copies the pose.
+            let nearest = (0..poses.len())
+                .filter(|&g| g % 10 != 0 && g.abs_diff(f) > 5)
+                .map(|g| poses[f].max_joint_angle_to(&poses[g]))
+                .fold(Real::INFINITY, Real::min);
+            far.push(nearest);
+        }
+        let min = far.iter().copied().fold(Real::INFINITY, Real::min);
+        let mean = far.iter().sum::<Real>() / far.len() as Real;
+        assert!(
+            min > 0.05,
+            "a held-out frame nearly repeats a distant frame: {min} rad"
+        );
+        assert!(
+            mean > 0.2,
+            "mean distance to a distant frame only {mean} rad"
+        );
+    }
+
+    #[test]
+    fn themes_reach_large_arm_and_torso_motion() {
+        let poses = MotionGenerator::new(5, 600).generate();
+        let range = |j: usize, c: usize| {
+            let v: Vec<Real> = poses.iter().map(|p| p.joint(j)[c]).collect();
+            v.iter().copied().fold(Real::NEG_INFINITY, Real::max)
+                - v.iter().copied().fold(Real::INFINITY, Real::min)
+        };
+        assert!(
+            range(16, 2) > 1.2,
+            "left shoulder abduction range {}",
+            range(16, 2)
+        );
+        assert!(range(18, 1) > 1.0, "left elbow range {}", range(18, 1));
+        assert!(range(3, 0) > 0.2, "spine1 bend range {}", range(3, 0));
+        assert!(range(1, 0) > 0.8, "left hip flexion range {}", range(1, 0));
+    }
+
+    #[test]
+    fn extreme_poses_rank_by_deviation() {
+        let mut raised = Pose::zero();
+        raised.set_joint(16, Vec3::new(0.0, 0.0, 0.8));
+        let mut foot = Pose::zero();
+        foot.set_joint(10, Vec3::new(0.2, 0.0, 0.0));
+        let poses = vec![Pose::zero(), foot, raised.clone(), raised];
+        assert_eq!(extreme_poses(&poses, 3), vec![2, 3, 1]);
+        assert_eq!(extreme_poses(&poses, 10).len(), 4);
+        assert!(extreme_poses(&[], 3).is_empty());
+    }
+
+    #[test]
+    fn interpolation_respects_step_and_ends_at_target() {
+        let l = JointLimits::default();
+        let a = l.sample(&mut SplitMix64::new(1), 1.0);
+        let b = l.sample(&mut SplitMix64::new(2), 1.0);
+        let steps = interpolation_steps(&a, &b, 0.05).unwrap();
+        assert_eq!(steps.last(), Some(&b));
+        let mut prev = a.clone();
+        for s in &steps {
+            assert!(prev.max_joint_angle_to(s) <= 0.05 + 1e-9);
+            prev = s.clone();
+        }
+        assert_eq!(interpolation_steps(&a, &a, 0.05).unwrap(), vec![a.clone()]);
+        assert!(matches!(
+            interpolation_steps(&a, &b, 0.0),
+            Err(Error::InvalidArgument(_))
+        ));
+        assert!(matches!(
+            interpolation_steps(&a, &b, f64::NAN),
+            Err(Error::InvalidArgument(_))
+        ));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(12))]
+        #[test]
+        fn any_seed_gives_valid_smooth_motion(seed in any::<u64>(), frames in 1usize..150) {
+            let g = MotionGenerator::new(seed, frames);
+            let poses = g.generate();
+            prop_assert_eq!(poses.len(), frames);
+            for p in &poses {
+                prop_assert!(g.limits.validate(p, 0.0).is_ok());
+            }
+            for w in poses.windows(2) {
+                prop_assert!(w[0].max_joint_angle_to(&w[1]) <= g.max_step_rad + 1e-9);
+            }
+        }
+    }
+}
