@@ -13,10 +13,7 @@ fn main() -> anyhow::Result<()> {
         flexion_warp: 2.0,
         flexion_weft: 2.0,
     };
-    let mut settings = DrapeSettings::default();
-    if let Some(rho) = std::env::args().nth(1) {
-        settings.chebyshev_rho = rho.parse()?;
-    }
+    let settings = DrapeSettings::default();
     for columns in [50, 66] {
         let spacing = 0.01;
         let model = grid_sheet(columns, columns, spacing, 0.15, stiffness)?;

@@ -1,5 +1,5 @@
-//! Cloth-body contact as a projective constraint: where a vertex's target point lies on the
-//! collider's offset surface, with Coulomb friction deciding between sticking and sliding.
+//! Cloth-body contact helpers: an empty collider, Coulomb friction on a contact vertex, and
+//! the final projection out of the collider.
 
 use garmatnet_core::{Real, SignedDistance, Vec3};
 
@@ -13,43 +13,25 @@ impl SignedDistance for EmptySpace {
     }
 }
 
-/// The projective-constraint target of a vertex near the collider, or `None` when the
-/// vertex is at least `margin` outside it.
-///
-/// The normal part pushes the vertex back to the offset surface `sdf = margin`. The
-/// tangential part pulls it towards `anchor` (where it first touched during this drape):
-/// fully while the tangential pull stays inside the friction cone (static friction), and
-/// with exactly `friction` times the normal push otherwise, dragging the anchor along
-/// (sliding). Both forces scale with the same penalty weight, which therefore cancels.
-pub(crate) fn contact_target(
-    x: &Vec3,
-    collider: &impl SignedDistance,
-    margin: Real,
+/// Coulomb friction on a contact vertex, given the net force `force` (newtons) of
+/// everything else on it, the contact's outward `normal` and the normal force magnitude
+/// `normal_force`. Returns the friction force and whether the vertex sticks: static friction
+/// cancels the tangential force while it stays within `friction * normal_force`; beyond that
+/// the vertex slides against exactly that much, opposing the tangential force.
+pub(crate) fn coulomb_friction(
+    force: &Vec3,
+    normal: &Vec3,
+    normal_force: Real,
     friction: Real,
-    anchor: &mut Option<Vec3>,
-) -> Option<Vec3> {
-    let (d, n) = collider.distance_and_gradient(x);
-    if !(d < margin) {
-        *anchor = None;
-        return None;
-    }
-    let push = margin - d;
-    let on_surface = x + n * push;
-    let Some(a) = *anchor else {
-        *anchor = Some(on_surface);
-        return Some(on_surface);
-    };
-    let offset = a - on_surface;
-    let tangential = offset - n * offset.dot(&n);
-    let slip = tangential.norm();
-    let limit = friction * push;
-    let target = if slip <= limit {
-        on_surface + tangential
+) -> (Vec3, bool) {
+    let tangential = force - normal * force.dot(normal);
+    let magnitude = tangential.norm();
+    let limit = friction * normal_force;
+    if magnitude <= limit {
+        (-tangential, true)
     } else {
-        on_surface + tangential * (limit / slip)
-    };
-    *anchor = Some(target);
-    Some(target)
+        (tangential * (-limit / magnitude), false)
+    }
 }
 
 /// Moves every vertex found inside the collider onto its surface, so that the reported
@@ -80,8 +62,6 @@ mod tests {
     use approx::assert_relative_eq;
     use garmatnet_core::Sphere;
 
-    const MARGIN: Real = 0.003;
-
     fn unit_sphere() -> Sphere {
         Sphere {
             centre: Vec3::zeros(),
@@ -90,44 +70,16 @@ mod tests {
     }
 
     #[test]
-    fn far_vertex_has_no_target_and_forgets_its_anchor() {
-        let mut anchor = Some(Vec3::y());
-        let t = contact_target(
-            &Vec3::new(0.0, 2.0, 0.0),
-            &unit_sphere(),
-            MARGIN,
-            0.5,
-            &mut anchor,
-        );
-        assert!(t.is_none() && anchor.is_none());
-    }
-
-    #[test]
-    fn first_touch_projects_to_offset_surface() {
-        let mut anchor = None;
-        let x = Vec3::new(0.0, 0.9, 0.0);
-        let t = contact_target(&x, &unit_sphere(), MARGIN, 0.5, &mut anchor).unwrap();
-        assert_relative_eq!(t, Vec3::new(0.0, 1.0 + MARGIN, 0.0), epsilon = 1e-12);
-        assert_eq!(anchor, Some(t));
-    }
-
-    #[test]
-    fn small_slip_sticks_large_slip_slides_by_friction_limit() {
-        let s = unit_sphere();
-        let top = Vec3::new(0.0, 1.0 + MARGIN, 0.0);
-        // Pushed 1 cm in, moved 1 mm sideways: inside the cone of friction 0.5.
-        let x = Vec3::new(0.001, 0.993, 0.0);
-        let mut anchor = Some(top);
-        let t = contact_target(&x, &s, MARGIN, 0.5, &mut anchor).unwrap();
-        assert_relative_eq!(t, top, epsilon = 1e-5);
-        // Moved 10 cm sideways: slides; the tangential pull is friction * normal push.
-        let x = Vec3::new(0.1, 0.99, 0.0);
-        let mut anchor = Some(top);
-        let t = contact_target(&x, &s, MARGIN, 0.5, &mut anchor).unwrap();
-        let (d, n) = s.distance_and_gradient(&x);
-        let on_surface = x + n * (MARGIN - d);
-        assert_relative_eq!((t - on_surface).norm(), 0.5 * (MARGIN - d), epsilon = 1e-12);
-        assert_eq!(anchor, Some(t));
+    fn friction_sticks_inside_the_cone_and_slides_outside() {
+        let n = Vec3::y();
+        let f = Vec3::new(0.3, -1.0, 0.4);
+        let (fr, stick) = coulomb_friction(&f, &n, 2.0, 0.5);
+        assert!(stick);
+        assert_relative_eq!(fr, Vec3::new(-0.3, 0.0, -0.4), epsilon = 1e-12);
+        let (fr, stick) = coulomb_friction(&f, &n, 0.5, 0.5);
+        assert!(!stick);
+        assert_relative_eq!(fr.norm(), 0.25, epsilon = 1e-12);
+        assert_relative_eq!(fr.normalize(), Vec3::new(-0.6, 0.0, -0.8), epsilon = 1e-12);
     }
 
     #[test]

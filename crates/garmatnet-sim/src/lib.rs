@@ -1,18 +1,21 @@
 //! The mass-spring drape solver that makes garmatnet's ground truth, and dataset generation.
 //!
 //! [`ClothModel`] holds Provot's mass-spring cloth; [`DrapeSolver`] drapes it to static
-//! equilibrium on any [`garmatnet_core::SignedDistance`] collider.
+//! equilibrium on any [`garmatnet_core::SignedDistance`] collider by Newton's method with
+//! pseudo-transient continuation, penalty contact and Coulomb friction.
 
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
 pub mod dataset_reader;
+mod drape_energy;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
 pub mod grid_sheet;
 pub mod manifest;
 pub mod motion;
+mod newton_system;
 pub mod sample_arrays;
 pub mod shard;
 
