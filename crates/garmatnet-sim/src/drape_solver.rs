@@ -271,10 +271,6 @@ impl DrapeSolver {
             if done || iterations >= s.max_iterations {
                 break (rms, max, contact_force, done);
             }
-            if std::env::var_os("DRAPE_DEBUG").is_some() {
-                eprintln!("it {iterations} rms {rms:.3e} max {max:.3e} h {h:.3e}");
-            }
-
             for i in 0..n {
                 diagonal[i] = if is_pinned[i] {
                     Mat3::identity()
@@ -284,11 +280,9 @@ impl DrapeSolver {
             }
             energy.add_hessian(positions, &contacts, &mut diagonal, &mut coupling);
             for i in 0..n {
-                if sticking[i] {
-                    if let Some(c) = &contacts[i] {
-                        let nn = c.normal * c.normal.transpose();
-                        diagonal[i] += (Mat3::identity() - nn) * self.contact_stiffness[i];
-                    }
+                if let (true, Some(c)) = (sticking[i], &contacts[i]) {
+                    let nn = c.normal * c.normal.transpose();
+                    diagonal[i] += (Mat3::identity() - nn) * self.contact_stiffness[i];
                 }
             }
             self.system.factorize(&diagonal, &coupling)?;
@@ -317,7 +311,6 @@ impl DrapeSolver {
                 .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]) * scale)
                 .collect();
             let slope: Real = (0..n).map(|i| step_gradient[i].dot(&step[i])).sum();
-
             // Backtracking on Φ_k: E change + lagged friction + proximal (inertia) term.
             let mut alpha = 1.0;
             let mut accepted = false;
@@ -329,11 +322,9 @@ impl DrapeSolver {
                 for i in 0..n {
                     let d = step[i] * alpha;
                     change += 0.5 * masses[i] / (h * h) * d.norm_squared() - slide_force[i].dot(&d);
-                    if sticking[i] {
-                        if let Some(c) = &contacts[i] {
-                            let t = d - c.normal * d.dot(&c.normal);
-                            change += 0.5 * self.contact_stiffness[i] * t.norm_squared();
-                        }
+                    if let (true, Some(c)) = (sticking[i], &contacts[i]) {
+                        let t = d - c.normal * d.dot(&c.normal);
+                        change += 0.5 * self.contact_stiffness[i] * t.norm_squared();
                     }
                 }
                 if change <= ARMIJO * alpha * slope {
