@@ -63,7 +63,7 @@ pub fn grid_sheet(
             .into());
         }
     }
-    if !(spacing > 0.0) {
+    if spacing.is_nan() || spacing <= 0.0 {
         return Err(garmatnet_core::Error::OutOfRange {
             what: "sheet spacing (metres)".into(),
             value: spacing,
