@@ -1,14 +1,34 @@
 //! The mass-spring drape solver that makes garmatnet's ground truth, and dataset generation.
+//!
+//! [`ClothModel`] holds Provot's mass-spring cloth; [`DrapeSolver`] drapes it to static
+//! equilibrium on any [`garmatnet_core::SignedDistance`] collider by Newton's method with
+//! pseudo-transient continuation, penalty contact and Coulomb friction.
 
+pub mod cloth_model;
+pub mod contact;
 pub mod dataset;
 pub mod dataset_reader;
+mod drape_energy;
+pub mod drape_settings;
+pub mod drape_solver;
+pub mod error;
+pub mod garment_drape;
+pub mod grid_sheet;
 pub mod manifest;
 pub mod motion;
+mod newton_system;
 pub mod sample_arrays;
 pub mod shard;
 
+pub use cloth_model::{ClothModel, SpringSpec};
+pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
 pub use dataset_reader::{DatasetReader, DatasetReport, Summary, check};
+pub use drape_settings::DrapeSettings;
+pub use drape_solver::{DrapeSolver, DrapeStats};
+pub use error::{Error, Result};
+pub use garment_drape::{SequenceSettings, cloth_from_garment, drape_sequence};
+pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, Manifest, MaterialEntry, SampleRecord,
     SampleStats, SmoothingInfo, TemplateInfo, sample_stem,

@@ -1,0 +1,59 @@
+//! Tuning knobs of the static-drape solver.
+
+use garmatnet_core::Real;
+use serde::{Deserialize, Serialize};
+
+/// Settings of [`crate::DrapeSolver`]. The defaults drape garment-sized cloth (a few
+/// thousand vertices, 0.01 to 20,000 N/m springs, 0.002 to 10 kg/m^2) to static equilibrium.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DrapeSettings {
+    /// Initial pseudo time step `h` (seconds) of the pseudo-transient continuation: each
+    /// Newton step minimises `E(x) + |x - x_k|^2_M / (2 h^2)`, so a small `h` keeps the first
+    /// steps of a cold drape gentle (a free vertex moves about `g h^2`). `h` then adapts
+    /// (switched evolution relaxation: it grows as the residual falls).
+    pub time_step: Real,
+    /// Largest pseudo time step (seconds); beyond a few seconds the steps are plain Newton.
+    pub max_time_step: Real,
+    /// Newton iteration cap; the drape reports `converged = false` when it is reached.
+    pub max_iterations: usize,
+    /// Convergence threshold on the RMS over free vertices of `|f_i| / (m_i g)` (net force,
+    /// friction included, over the vertex's weight; dimensionless).
+    pub residual_tolerance: Real,
+    /// Convergence threshold on the largest `|f_i| / (m_i g)` over free vertices.
+    pub max_residual_tolerance: Real,
+    /// Gravitational acceleration (m/s^2), acting along -y.
+    pub gravity: Real,
+    /// Contact margin (metres): the penalty pushes cloth closer than this to the collider
+    /// back out, so at rest cloth sits a little inside the margin, outside the collider.
+    pub contact_margin: Real,
+    /// Contact penalty stiffness of a vertex relative to the sum of its incident spring
+    /// stiffnesses (dimensionless): large values keep the contact's give far below the
+    /// margin under the cloth's own tension.
+    pub contact_stiffness_ratio: Real,
+    /// Least contact penalty stiffness (N/m), for very soft cloth.
+    pub min_contact_stiffness: Real,
+    /// Coulomb friction coefficient between cloth and collider (0 = frictionless).
+    pub friction: Real,
+    /// Largest move of any vertex in one Newton step (metres): the whole step is scaled
+    /// down to it, so no vertex tunnels through a thin body part.
+    pub max_step: Real,
+}
+
+impl Default for DrapeSettings {
+    fn default() -> Self {
+        Self {
+            time_step: 0.02,
+            max_time_step: 10.0,
+            max_iterations: 300,
+            residual_tolerance: 1e-3,
+            max_residual_tolerance: 5e-2,
+            gravity: 9.81,
+            contact_margin: 0.003,
+            contact_stiffness_ratio: 50.0,
+            min_contact_stiffness: 1e3,
+            friction: 0.3,
+            max_step: 0.02,
+        }
+    }
+}

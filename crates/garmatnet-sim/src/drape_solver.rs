@@ -1,0 +1,437 @@
+//! The static-drape solver: Newton's method with pseudo-transient continuation on the
+//! drape energy (springs, gravity, penalty contact; [`crate::drape_energy`]) plus lagged
+//! Coulomb friction.
+//!
+//! Iteration `k` takes one damped Newton step on `Φ_k(x) = E(x) + |x - x_k|^2_M / (2h^2)`
+//! (+ the friction of the contacts at `x_k`): it solves `(M/h^2 + H) Δ = -∇Φ_k(x_k)` with
+//! `H` the PSD-projected spring Hessian plus `k_c n nᵀ` per contact (and `k_c (I - n nᵀ)`
+//! per sticking contact: static friction holds it tangentially for this step), then
+//! backtracks on `Φ_k` (Armijo). `h` grows as the residual falls (switched evolution
+//! relaxation) and shrinks after rejected steps, so a cold drape starts as gentle implicit
+//! dynamics and ends as plain Newton. The 3n x 3n pattern never changes (contacts only touch
+//! diagonal blocks), so the AMD ordering and symbolic Cholesky are done once per topology.
+//! The residual is a force balance: springs + gravity + contact + the friction force the
+//! Coulomb cone allows, over the vertex's weight.
+
+use std::time::Instant;
+
+use garmatnet_core::error::ensure_finite;
+use garmatnet_core::{Error as CoreError, Mat3, Real, SignedDistance, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::cloth_model::ClothModel;
+use crate::contact::{coulomb_friction, push_out};
+use crate::drape_energy::{Contact, DrapeEnergy};
+use crate::drape_settings::DrapeSettings;
+use crate::error::{Error, Result};
+use crate::newton_system::NewtonSystem;
+
+/// Armijo sufficient-decrease constant.
+const ARMIJO: Real = 1e-4;
+/// Halvings of the step before it is rejected.
+const MAX_BACKTRACKS: usize = 10;
+/// Growth of the pseudo time step after a full, unclamped Newton step.
+const GROWTH: Real = 3.0;
+/// Smallest pseudo time step (seconds).
+const MIN_TIME_STEP: Real = 1e-6;
+
+/// What one drape did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DrapeStats {
+    /// Newton iterations run (one numeric factorisation each).
+    pub iterations: usize,
+    /// Final normalised residual: RMS over free vertices of `|f_i| / (m_i g)`, with `f_i`
+    /// the net force (springs + gravity + contact + friction) on vertex `i`.
+    pub final_residual: Real,
+    /// Final largest `|f_i| / (m_i g)` over free vertices.
+    pub max_residual: Real,
+    /// Deepest remaining penetration into the collider after the final projection
+    /// (metres, >= 0).
+    pub max_penetration: Real,
+    /// Largest spring strain `(l - rest) / rest` (dimensionless; negative when all springs
+    /// are compressed).
+    pub max_strain: Real,
+    /// Vertices in contact at the end (within the margin of the collider).
+    pub contacts: usize,
+    /// Sum of the contact forces (normal penalty + friction) on the cloth at the last
+    /// iterate (newtons); at equilibrium without pins it balances the cloth's weight.
+    pub contact_force: Vec3,
+    /// Numeric Cholesky factorisations done (one per Newton iteration).
+    pub refactorizations: usize,
+    /// Newton steps rejected by the line search (the pseudo time step shrank).
+    pub rejected_steps: usize,
+    /// Wall-clock time of the drape (milliseconds).
+    pub wall_time_ms: Real,
+    /// Whether both residual tolerances were met before the iteration cap.
+    pub converged: bool,
+}
+
+/// The solver for one cloth topology: owns the Newton system's symbolic Cholesky
+/// factorisation (computed once in [`DrapeSolver::new`]); each iteration only refactors
+/// numerically.
+#[derive(Debug, Clone)]
+pub struct DrapeSolver {
+    model: ClothModel,
+    settings: DrapeSettings,
+    system: NewtonSystem,
+    /// Contact penalty stiffness per vertex (N/m).
+    contact_stiffness: Vec<Real>,
+}
+
+impl DrapeSolver {
+    /// A solver for `model`, with its symbolic factorisation (fill-reducing ordering and
+    /// elimination tree) computed once.
+    ///
+    /// # Errors
+    /// [`CoreError::OutOfRange`] for invalid settings (non-positive time steps, iteration
+    /// cap, tolerances, gravity or step limit; negative margin or friction);
+    /// [`Error::Factorization`] if the symbolic analysis fails (out of memory).
+    pub fn new(model: &ClothModel, settings: &DrapeSettings) -> Result<Self> {
+        validate_settings(settings)?;
+        let mut solver = Self {
+            system: NewtonSystem::new(model)?,
+            model: model.clone(),
+            settings: settings.clone(),
+            contact_stiffness: Vec::new(),
+        };
+        solver.update_weights();
+        Ok(solver)
+    }
+
+    /// Switches to another material (stiffnesses, masses, rest lengths) on the same
+    /// topology, keeping the symbolic factorisation.
+    ///
+    /// # Errors
+    /// [`CoreError::Mismatch`] if `model`'s vertex count or spring endpoints differ.
+    pub fn set_model(&mut self, model: &ClothModel) -> Result<()> {
+        if !self.model.same_topology(model) {
+            return Err(CoreError::Mismatch {
+                what: "cloth topology of the drape solver".into(),
+                expected: format!(
+                    "{} vertices and the same {} spring endpoints",
+                    self.model.vertex_count(),
+                    self.model.springs().len()
+                ),
+                got: format!(
+                    "{} vertices, {} springs",
+                    model.vertex_count(),
+                    model.springs().len()
+                ),
+            }
+            .into());
+        }
+        self.model = model.clone();
+        self.update_weights();
+        Ok(())
+    }
+
+    /// Changes the settings, keeping the symbolic factorisation.
+    ///
+    /// # Errors
+    /// As [`DrapeSolver::new`] for invalid settings.
+    pub fn set_settings(&mut self, settings: &DrapeSettings) -> Result<()> {
+        validate_settings(settings)?;
+        self.settings = settings.clone();
+        self.update_weights();
+        Ok(())
+    }
+
+    /// The cloth being simulated.
+    #[must_use]
+    pub fn model(&self) -> &ClothModel {
+        &self.model
+    }
+
+    /// The settings in use.
+    #[must_use]
+    pub fn settings(&self) -> &DrapeSettings {
+        &self.settings
+    }
+
+    /// Non-zeros of the Cholesky factor of the 3n x 3n Newton matrix (its cost driver).
+    #[must_use]
+    pub fn factor_nonzeros(&self) -> usize {
+        self.system.factor_len()
+    }
+
+    fn update_weights(&mut self) {
+        let mut incident = vec![0.0; self.model.vertex_count()];
+        for s in self.model.springs() {
+            incident[s.a] += s.stiffness;
+            incident[s.b] += s.stiffness;
+        }
+        let (ratio, floor) = (
+            self.settings.contact_stiffness_ratio,
+            self.settings.min_contact_stiffness,
+        );
+        self.contact_stiffness = incident.iter().map(|k| (ratio * k).max(floor)).collect();
+    }
+
+    /// Drapes the cloth from `positions` (metres; the warm start, e.g. the previous pose's
+    /// result) to static equilibrium under gravity against `collider`, holding the
+    /// `pinned` vertices at their given positions. Writes the result into `positions`.
+    ///
+    /// # Errors
+    /// - [`CoreError::WrongLength`] if `positions` does not have one entry per vertex;
+    /// - [`CoreError::NonFinite`] for NaN or infinite positions;
+    /// - [`CoreError::OutOfRange`] for a pinned index past the vertices;
+    /// - [`Error::Factorization`] if the Newton matrix is not positive definite;
+    /// - [`Error::Diverged`] if an iterate became non-finite (`positions` is then left at
+    ///   the last finite iterate).
+    pub fn drape(
+        &mut self,
+        positions: &mut [Vec3],
+        collider: &impl SignedDistance,
+        pinned: &[usize],
+    ) -> Result<DrapeStats> {
+        let start = Instant::now();
+        let n = self.model.vertex_count();
+        if positions.len() != n {
+            return Err(CoreError::WrongLength {
+                what: "cloth positions".into(),
+                expected: n.to_string(),
+                got: positions.len(),
+            }
+            .into());
+        }
+        ensure_finite(
+            "cloth positions (metres)",
+            positions.iter().flat_map(|v| [v.x, v.y, v.z]),
+        )?;
+        let mut is_pinned = vec![false; n];
+        for &p in pinned {
+            if p >= n {
+                return Err(CoreError::OutOfRange {
+                    what: "pinned vertex index".into(),
+                    value: p as Real,
+                    min: 0.0,
+                    max: (n - 1) as Real,
+                    hint: "; pin only vertices of the cloth".into(),
+                }
+                .into());
+            }
+            is_pinned[p] = true;
+        }
+        let s = self.settings.clone();
+        let model = self.model.clone();
+        let masses = model.masses();
+        let energy = DrapeEnergy {
+            model: &model,
+            gravity: s.gravity,
+            margin: s.contact_margin,
+            contact_stiffness: &self.contact_stiffness,
+            is_pinned: &is_pinned,
+        };
+        let free_count = is_pinned.iter().filter(|p| !**p).count().max(1);
+
+        let mut contacts: Vec<Option<Contact>> = vec![None; n];
+        let mut gradient = vec![Vec3::zeros(); n];
+        // The gradient of Φ_k at x_k: gradient plus the lagged sliding friction.
+        let mut step_gradient = vec![Vec3::zeros(); n];
+        let mut sticking = vec![false; n];
+        let mut slide_force = vec![Vec3::zeros(); n];
+        let mut diagonal = vec![Mat3::zeros(); n];
+        let mut coupling = vec![Mat3::zeros(); model.springs().len()];
+        let mut rhs = vec![0.0; 3 * n];
+        let mut trial = positions.to_vec();
+        let mut h = s.time_step;
+        let mut iterations = 0;
+        let mut rejected_steps = 0;
+        let (residual, max_residual, contact_force, converged) = loop {
+            energy.gradient(positions, collider, &mut contacts, &mut gradient);
+            // Friction at x_k and the force-balance residual.
+            let mut sum = 0.0;
+            let mut max: Real = 0.0;
+            let mut contact_force = Vec3::zeros();
+            for i in 0..n {
+                sticking[i] = false;
+                slide_force[i] = Vec3::zeros();
+                if is_pinned[i] {
+                    continue;
+                }
+                let mut net = -gradient[i];
+                if let Some(c) = &contacts[i] {
+                    let normal_force = energy.normal_force(i, c);
+                    let (friction, sticks) =
+                        coulomb_friction(&net, &c.normal, normal_force, s.friction);
+                    net += friction;
+                    sticking[i] = sticks;
+                    if !sticks {
+                        slide_force[i] = friction;
+                    }
+                    contact_force += c.normal * normal_force + friction;
+                }
+                step_gradient[i] = gradient[i] - slide_force[i];
+                let e = net.norm() / (masses[i] * s.gravity);
+                sum += e * e;
+                max = max.max(e);
+            }
+            let rms = (sum / free_count as Real).sqrt();
+            let done = rms <= s.residual_tolerance && max <= s.max_residual_tolerance;
+            if done || iterations >= s.max_iterations {
+                break (rms, max, contact_force, done);
+            }
+            for i in 0..n {
+                diagonal[i] = if is_pinned[i] {
+                    Mat3::identity()
+                } else {
+                    Mat3::identity() * (masses[i] / (h * h))
+                };
+            }
+            energy.add_hessian(positions, &contacts, &mut diagonal, &mut coupling);
+            for i in 0..n {
+                if let (true, Some(c)) = (sticking[i], &contacts[i]) {
+                    let nn = c.normal * c.normal.transpose();
+                    diagonal[i] += (Mat3::identity() - nn) * self.contact_stiffness[i];
+                }
+            }
+            self.system.factorize(&diagonal, &coupling)?;
+            iterations += 1;
+            for i in 0..n {
+                let g = -step_gradient[i];
+                rhs[3 * i] = g.x;
+                rhs[3 * i + 1] = g.y;
+                rhs[3 * i + 2] = g.z;
+            }
+            self.system.solve(&mut rhs);
+            let longest = (0..n)
+                .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]).norm())
+                .fold(0.0, Real::max);
+            if !longest.is_finite() {
+                return Err(Error::Diverged {
+                    iteration: iterations,
+                });
+            }
+            let scale = if longest > s.max_step {
+                s.max_step / longest
+            } else {
+                1.0
+            };
+            let step: Vec<Vec3> = (0..n)
+                .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]) * scale)
+                .collect();
+            let slope: Real = (0..n).map(|i| step_gradient[i].dot(&step[i])).sum();
+            // Backtracking on Φ_k: E change + lagged friction + proximal (inertia) term.
+            let mut alpha = 1.0;
+            let mut accepted = false;
+            for _ in 0..=MAX_BACKTRACKS {
+                for i in 0..n {
+                    trial[i] = positions[i] + step[i] * alpha;
+                }
+                let mut change = energy.change(positions, &trial, &contacts, collider);
+                for i in 0..n {
+                    let d = step[i] * alpha;
+                    change += 0.5 * masses[i] / (h * h) * d.norm_squared() - slide_force[i].dot(&d);
+                    if let (true, Some(c)) = (sticking[i], &contacts[i]) {
+                        let t = d - c.normal * d.dot(&c.normal);
+                        change += 0.5 * self.contact_stiffness[i] * t.norm_squared();
+                    }
+                }
+                if change <= ARMIJO * alpha * slope {
+                    accepted = true;
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            if accepted {
+                if trial.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
+                    return Err(Error::Diverged {
+                        iteration: iterations,
+                    });
+                }
+                positions.copy_from_slice(&trial);
+                // Full steps grow h towards plain Newton; damped ones mean it was too bold.
+                h = if alpha == 1.0 && scale == 1.0 {
+                    h * GROWTH
+                } else if alpha == 1.0 {
+                    h
+                } else {
+                    h * 0.5
+                };
+                h = h.clamp(MIN_TIME_STEP, s.max_time_step);
+            } else {
+                rejected_steps += 1;
+                h = (h * 0.25).max(MIN_TIME_STEP);
+            }
+        };
+        let max_penetration = push_out(positions, collider, &is_pinned);
+        let contacts = (0..n)
+            .filter(|&i| !is_pinned[i] && collider.distance(&positions[i]) < s.contact_margin)
+            .count();
+        Ok(DrapeStats {
+            iterations,
+            final_residual: residual,
+            max_residual,
+            max_penetration,
+            max_strain: self.max_strain(positions),
+            contacts,
+            contact_force,
+            refactorizations: iterations,
+            rejected_steps,
+            wall_time_ms: start.elapsed().as_secs_f64() * 1e3,
+            converged,
+        })
+    }
+
+    fn max_strain(&self, x: &[Vec3]) -> Real {
+        self.model
+            .springs()
+            .iter()
+            .filter(|s| s.rest_length > 0.0)
+            .map(|s| ((x[s.a] - x[s.b]).norm() - s.rest_length) / s.rest_length)
+            .fold(Real::NEG_INFINITY, Real::max)
+    }
+}
+
+fn validate_settings(s: &DrapeSettings) -> Result<()> {
+    let checks: [(&str, Real, Real, Real); 10] = [
+        ("time step (seconds)", s.time_step, 1e-6, 1e3),
+        ("max time step (seconds)", s.max_time_step, s.time_step, 1e3),
+        ("residual tolerance", s.residual_tolerance, 0.0, Real::MAX),
+        (
+            "max residual tolerance",
+            s.max_residual_tolerance,
+            0.0,
+            Real::MAX,
+        ),
+        ("gravity (m/s^2)", s.gravity, 1e-6, Real::MAX),
+        ("contact margin (metres)", s.contact_margin, 0.0, 1.0),
+        (
+            "contact stiffness ratio",
+            s.contact_stiffness_ratio,
+            0.0,
+            1e9,
+        ),
+        (
+            "min contact stiffness (N/m)",
+            s.min_contact_stiffness,
+            1e-6,
+            1e12,
+        ),
+        ("friction coefficient", s.friction, 0.0, 10.0),
+        ("max step (metres)", s.max_step, 1e-9, 10.0),
+    ];
+    for (what, value, min, max) in checks {
+        if !(value >= min && value <= max) {
+            return Err(CoreError::OutOfRange {
+                what: format!("drape setting {what}"),
+                value,
+                min,
+                max,
+                hint: String::new(),
+            }
+            .into());
+        }
+    }
+    if s.max_iterations == 0 {
+        return Err(CoreError::OutOfRange {
+            what: "drape setting max_iterations".into(),
+            value: 0.0,
+            min: 1.0,
+            max: Real::MAX,
+            hint: String::new(),
+        }
+        .into());
+    }
+    Ok(())
+}

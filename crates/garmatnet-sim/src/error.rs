@@ -1,0 +1,30 @@
+//! The simulation crate's error type: every variant says what went wrong and what to fix.
+
+/// Everything that can go wrong in `garmatnet-sim`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Invalid input caught by the core checks (non-finite values, out-of-range indices,
+    /// wrong lengths, mismatched topologies). The wrapped message names the input to fix.
+    #[error(transparent)]
+    Core(#[from] garmatnet_core::Error),
+    /// The sparse Cholesky factorisation failed: the system matrix is not positive definite
+    /// or memory ran out. Check that masses, stiffnesses and the pseudo time step are
+    /// positive and finite; a time step so large that `mass / h^2` underflows also breaks it.
+    #[error(
+        "sparse Cholesky factorisation failed: {0}; check masses, stiffnesses and the time step"
+    )]
+    Factorization(String),
+    /// The iteration produced NaN or infinite positions. Reduce the pseudo time step or the
+    /// stiffness range, and check that the collider's distance field is finite near the cloth.
+    #[error(
+        "drape diverged at iteration {iteration}: positions became non-finite; reduce the time step or check the collider"
+    )]
+    Diverged {
+        /// The iteration at which non-finite positions appeared.
+        iteration: usize,
+    },
+}
+
+/// Shorthand for results in `garmatnet-sim`.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

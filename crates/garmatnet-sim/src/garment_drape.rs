@@ -1,0 +1,134 @@
+//! The T-shirt on the body: the garment template as a [`ClothModel`] for a [`Material`], and
+//! a pose sequence walked in small warm-started steps.
+
+use garmatnet_core::{
+    CapsuleBody, Error as CoreError, Garment, Material, Pose, Real, SpringKind, Vec3,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::cloth_model::{ClothModel, SpringSpec};
+use crate::drape_settings::DrapeSettings;
+use crate::drape_solver::{DrapeSolver, DrapeStats};
+use crate::error::Result;
+use crate::motion::interpolation_steps;
+
+/// The garment as a mass-spring cloth of `material`.
+///
+/// Every spring's constant is the material's stiffness for its [`SpringKind`], unscaled: the
+/// material's stiffnesses are membrane stiffnesses (N/m), equal to the spring constant on a
+/// square grid at any resolution (see [`garmatnet_core::material`]); shear and flexion are
+/// used as given. Masses are [`Garment::vertex_masses`] at the material's density.
+/// Out-of-bounds but [physical](Material::is_physical) materials are accepted, for stress
+/// tests.
+///
+/// # Errors
+/// [`CoreError::OutOfRange`] or [`CoreError::NonFinite`] if the material is not physical;
+/// as [`ClothModel::new`] for a broken garment.
+pub fn cloth_from_garment(garment: &Garment, material: &Material) -> Result<ClothModel> {
+    Material::physical(
+        material.structural_vertical,
+        material.structural_horizontal,
+        material.flexion_vertical,
+        material.flexion_horizontal,
+        material.shear,
+        material.density,
+    )?;
+    let springs: Vec<SpringSpec> = garment
+        .springs
+        .iter()
+        .map(|s| SpringSpec {
+            a: s.a as usize,
+            b: s.b as usize,
+            rest_length: s.rest_length,
+            stiffness: match s.kind {
+                SpringKind::StructuralVertical => material.structural_vertical,
+                SpringKind::StructuralHorizontal => material.structural_horizontal,
+                SpringKind::Shear => material.shear,
+                SpringKind::FlexionVertical => material.flexion_vertical,
+                SpringKind::FlexionHorizontal => material.flexion_horizontal,
+            },
+        })
+        .collect();
+    let masses = garment.vertex_masses(material.density);
+    ClothModel::new(&garment.rest.vertices, &springs, &masses)
+}
+
+/// How [`drape_sequence`] walks from pose to pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SequenceSettings {
+    /// The solver settings of the full drape at every requested pose.
+    pub drape: DrapeSettings,
+    /// Largest joint rotation between intermediate poses (radians). The default 0.014 moves
+    /// a point 0.7 m from its joint (a wrist from the shoulder) by about 1 cm per step.
+    pub max_step_rad: Real,
+    /// Newton iterations on each intermediate pose (the cloth need only follow the body).
+    pub intermediate_iterations: usize,
+}
+
+impl Default for SequenceSettings {
+    fn default() -> Self {
+        Self {
+            drape: DrapeSettings::default(),
+            max_step_rad: 0.014,
+            intermediate_iterations: 4,
+        }
+    }
+}
+
+/// Drapes `garment` of `material` on `body` in every pose of `poses`, in order.
+///
+/// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
+/// to each pose through intermediate poses ([`interpolation_steps`] at
+/// `settings.max_step_rad`), warm-starting every step from the previous result with
+/// `settings.intermediate_iterations` Newton iterations, and converges fully at each pose.
+/// Calls `on_sample(pose_index, positions, stats)` with the settled garment (metres) at
+/// every pose. Returns the stats of the rest drape followed by one per pose.
+///
+/// # Errors
+/// As [`cloth_from_garment`] and [`DrapeSolver::drape`]; an invalid
+/// `settings.max_step_rad` or zero `intermediate_iterations` is
+/// [`CoreError::InvalidArgument`]; any error of `on_sample` stops the walk and is returned.
+pub fn drape_sequence(
+    garment: &Garment,
+    body: &CapsuleBody,
+    material: &Material,
+    poses: &[Pose],
+    settings: &SequenceSettings,
+    mut on_sample: impl FnMut(usize, &[Vec3], &DrapeStats) -> Result<()>,
+) -> Result<Vec<DrapeStats>> {
+    if settings.intermediate_iterations == 0 {
+        return Err(CoreError::InvalidArgument(
+            "intermediate_iterations must be at least 1".into(),
+        )
+        .into());
+    }
+    let model = cloth_from_garment(garment, material)?;
+    let full = settings.drape.clone();
+    let quick = DrapeSettings {
+        max_iterations: settings.intermediate_iterations,
+        ..full.clone()
+    };
+    let mut solver = DrapeSolver::new(&model, &full)?;
+    let mut positions = garment.rest.vertices.clone();
+    let mut current = Pose::zero();
+    let mut all = vec![solver.drape(&mut positions, &body.pose(&current), &[])?];
+    for (index, target) in poses.iter().enumerate() {
+        let steps = interpolation_steps(&current, target, settings.max_step_rad)?;
+        let (last, between) = steps
+            .split_last()
+            .unwrap_or_else(|| unreachable!("interpolation ends at the target"));
+        if !between.is_empty() {
+            solver.set_settings(&quick)?;
+            for pose in between {
+                solver.drape(&mut positions, &body.pose(pose), &[])?;
+            }
+            solver.set_settings(&full)?;
+        }
+        let stats = solver.drape(&mut positions, &body.pose(last), &[])?;
+        on_sample(index, &positions, &stats)?;
+        all.push(stats);
+        current = target.clone();
+    }
+    Ok(all)
+}

@@ -1,0 +1,219 @@
+//! Physics sanity of the static-drape solver on sheets: symmetry, sag trends, force balance
+//! on a sphere, stability over the material range, determinism and input errors.
+
+use garmatnet_core::{Error as CoreError, Real, Sphere, Vec3};
+use garmatnet_sim::{
+    ClothModel, DrapeSettings, DrapeSolver, DrapeStats, EmptySpace, Error, SheetStiffness,
+    grid_sheet,
+};
+
+const MID: SheetStiffness = SheetStiffness {
+    structural_warp: 300.0,
+    structural_weft: 250.0,
+    shear: 30.0,
+    flexion_warp: 2.0,
+    flexion_weft: 2.0,
+};
+const DENSITY: Real = 0.15;
+
+/// A sheet hanging in the x-y plane, pinned at its two top corners.
+fn hanging(
+    columns: usize,
+    density: Real,
+    stiffness: SheetStiffness,
+) -> (ClothModel, Vec<Vec3>, Vec<usize>, DrapeStats) {
+    let model = grid_sheet(columns, columns, 0.02, density, stiffness).unwrap();
+    // Rotate x-z into x-y: row 0 at the top.
+    let mut x: Vec<Vec3> = model
+        .rest_positions()
+        .iter()
+        .map(|p| Vec3::new(p.x, -p.z, 0.0))
+        .collect();
+    let pins = vec![0, columns - 1];
+    let mut solver = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    let stats = solver.drape(&mut x, &EmptySpace, &pins).unwrap();
+    (model, x, pins, stats)
+}
+
+/// How far the middle of the top edge hangs below the pinned corners (metres).
+fn sag(columns: usize, x: &[Vec3]) -> Real {
+    x[0].y - x[columns / 2].y
+}
+
+#[test]
+fn hanging_sheet_is_mirror_symmetric() {
+    let columns = 15;
+    let (_, x, _, stats) = hanging(columns, DENSITY, MID);
+    assert!(stats.converged, "{stats:?}");
+    let size = 0.02 * (columns - 1) as Real;
+    for r in 0..columns {
+        for c in 0..columns {
+            let p = x[r * columns + c];
+            let q = x[r * columns + columns - 1 - c];
+            let mirror_error = (Vec3::new(-q.x, q.y, q.z) - p).norm();
+            assert!(
+                mirror_error < 1e-6 * size,
+                "vertex ({c}, {r}) mirror error {mirror_error}"
+            );
+        }
+    }
+}
+
+#[test]
+fn hanging_sag_grows_with_density_and_shrinks_with_stiffness() {
+    let columns = 11;
+    let base = sag(columns, &hanging(columns, DENSITY, MID).1);
+    let heavy = sag(columns, &hanging(columns, DENSITY * 4.0, MID).1);
+    let stiff = sag(columns, &hanging(columns, DENSITY, MID.scaled(4.0)).1);
+    assert!(heavy > base * 1.01, "heavy {heavy} vs base {base}");
+    assert!(stiff < base * 0.99, "stiff {stiff} vs base {base}");
+}
+
+fn sheet_on_sphere(
+    columns: usize,
+    density: Real,
+    stiffness: SheetStiffness,
+) -> (ClothModel, Vec<Vec3>, Sphere) {
+    let model = grid_sheet(columns, columns, 0.02, density, stiffness).unwrap();
+    let sphere = Sphere {
+        centre: Vec3::zeros(),
+        radius: 0.15,
+    };
+    let x = model
+        .rest_positions()
+        .iter()
+        .map(|p| p + Vec3::new(0.0, 0.16, 0.0))
+        .collect();
+    (model, x, sphere)
+}
+
+#[test]
+fn sheet_on_sphere_rests_with_balanced_forces_and_no_penetration() {
+    let (model, mut x, sphere) = sheet_on_sphere(15, DENSITY, MID);
+    let mut solver = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    let stats = solver.drape(&mut x, &sphere, &[]).unwrap();
+    assert!(stats.converged, "{stats:?}");
+    let weight = model.total_mass() * 9.81;
+    let f = stats.contact_force;
+    assert!(
+        (f.y - weight).abs() < 0.01 * weight,
+        "contact {f:?} vs weight {weight}"
+    );
+    assert!(
+        f.x.abs() < 0.01 * weight && f.z.abs() < 0.01 * weight,
+        "{f:?}"
+    );
+    assert!(stats.max_penetration <= 1e-3, "{stats:?}");
+    let deepest = x
+        .iter()
+        .map(|p| -garmatnet_core::SignedDistance::distance(&sphere, p))
+        .fold(0.0, Real::max);
+    assert!(deepest <= 1e-3, "deepest {deepest}");
+    // It drapes: the corners hang below the top, following the sphere.
+    assert!(x[0].y < 0.29, "corner at {}", x[0].y);
+}
+
+#[test]
+fn extreme_materials_stay_finite_and_bounded() {
+    for (density, k) in [
+        (DENSITY, 0.01),
+        (DENSITY, 100.0),
+        (DENSITY * 0.1, 1.0),
+        (DENSITY * 10.0, 1.0),
+    ] {
+        let (model, mut x, sphere) = sheet_on_sphere(15, density, MID.scaled(k));
+        let settings = DrapeSettings {
+            max_iterations: 400,
+            ..DrapeSettings::default()
+        };
+        let mut solver = DrapeSolver::new(&model, &settings).unwrap();
+        let stats = solver.drape(&mut x, &sphere, &[]).unwrap();
+        assert!(
+            x.iter().all(|p| p.iter().all(|v| v.is_finite())),
+            "density {density}, k x{k}"
+        );
+        assert!(
+            x.iter().all(|p| p.norm() < 1.0),
+            "density {density}, k x{k}: escaped"
+        );
+        assert!(
+            stats.max_penetration <= 1e-3,
+            "density {density}, k x{k}: {stats:?}"
+        );
+        assert!(stats.final_residual.is_finite());
+    }
+}
+
+#[test]
+fn same_inputs_give_bit_identical_outputs() {
+    let (model, x0, sphere) = sheet_on_sphere(15, DENSITY, MID);
+    let run = |solver: &mut DrapeSolver| {
+        let mut x = x0.clone();
+        solver.drape(&mut x, &sphere, &[]).unwrap();
+        x
+    };
+    let mut a = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    let mut b = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    let first = run(&mut a);
+    // A used solver (holding a factor from the previous drape) must not change the answer.
+    let again = run(&mut a);
+    let fresh = run(&mut b);
+    assert!(first.iter().zip(&again).all(|(p, q)| {
+        p.iter()
+            .zip(q.iter())
+            .all(|(u, v)| u.to_bits() == v.to_bits())
+    }));
+    assert!(first.iter().zip(&fresh).all(|(p, q)| {
+        p.iter()
+            .zip(q.iter())
+            .all(|(u, v)| u.to_bits() == v.to_bits())
+    }));
+}
+
+#[test]
+fn warm_start_from_equilibrium_needs_few_iterations() {
+    let (model, mut x, sphere) = sheet_on_sphere(15, DENSITY, MID);
+    let mut solver = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    let cold = solver.drape(&mut x, &sphere, &[]).unwrap();
+    let warm = solver.drape(&mut x, &sphere, &[]).unwrap();
+    assert!(
+        warm.converged && warm.iterations * 4 <= cold.iterations.max(4),
+        "cold {cold:?} warm {warm:?}"
+    );
+}
+
+#[test]
+fn bad_drape_inputs_are_typed_errors() {
+    let (model, mut x, sphere) = sheet_on_sphere(5, DENSITY, MID);
+    let mut solver = DrapeSolver::new(&model, &DrapeSettings::default()).unwrap();
+    x[3].y = Real::NAN;
+    let e = solver.drape(&mut x, &sphere, &[]).unwrap_err();
+    assert!(
+        matches!(e, Error::Core(CoreError::NonFinite { index: 10, .. })),
+        "{e}"
+    );
+    x[3].y = 0.0;
+    let e = solver.drape(&mut x, &sphere, &[25]).unwrap_err();
+    assert!(
+        matches!(e, Error::Core(CoreError::OutOfRange { .. })),
+        "{e}"
+    );
+    let e = solver.drape(&mut x[..4], &sphere, &[]).unwrap_err();
+    assert!(
+        matches!(e, Error::Core(CoreError::WrongLength { .. })),
+        "{e}"
+    );
+    let bad = DrapeSettings {
+        time_step: -1.0,
+        ..DrapeSettings::default()
+    };
+    assert!(matches!(
+        DrapeSolver::new(&model, &bad).unwrap_err(),
+        Error::Core(CoreError::OutOfRange { .. })
+    ));
+    let other = grid_sheet(6, 5, 0.02, DENSITY, MID).unwrap();
+    assert!(matches!(
+        solver.set_model(&other).unwrap_err(),
+        Error::Core(CoreError::Mismatch { .. })
+    ));
+}
