@@ -29,19 +29,27 @@ fn main() -> anyhow::Result<()> {
         settings.drape.contact_stiffness_ratio = v.parse()?;
     }
     let start = Instant::now();
-    let stats = drape_sequence(&garment, &body, &material, &poses, &settings, |i, _, s| {
-        println!(
-            "pose {i}: {:.0} ms, {} it, rms {:.1e}, max {:.1e}, pen {:.1e}, strain {:.3}, conv {}",
-            s.wall_time_ms,
-            s.iterations,
-            s.final_residual,
-            s.max_residual,
-            s.max_penetration,
-            s.max_strain,
-            s.converged
-        );
-        Ok(())
-    })?;
+    let stats = drape_sequence(
+        &garment,
+        &body,
+        &material,
+        &poses,
+        &settings,
+        None,
+        |i, _, s| {
+            println!(
+                "pose {i}: {:.0} ms, {} it, rms {:.1e}, max {:.1e}, pen {:.1e}, strain {:.3}, conv {}",
+                s.wall_time_ms,
+                s.iterations,
+                s.final_residual,
+                s.max_residual,
+                s.max_penetration,
+                s.max_strain,
+                s.converged
+            );
+            Ok(())
+        },
+    )?;
     let s = &stats[0];
     println!(
         "rest (cold): {:.0} ms, {} it, rms {:.1e}, max {:.1e}, pen {:.1e}, conv {}",

@@ -28,12 +28,17 @@ pub struct DrapeSettings {
     /// back out, so at rest cloth sits a little inside the margin, outside the collider.
     pub contact_margin: Real,
     /// Contact penalty stiffness of a vertex relative to the sum of its incident spring
-    /// stiffnesses (dimensionless): large values keep the contact's give far below the
-    /// margin under the cloth's own tension.
+    /// stiffnesses (dimensionless). Default 0: the force a body exerts on draped cloth is set
+    /// by the load (weight, and tension times curvature), not by the cloth's stiffness, and
+    /// penalties 10^5 times stiffer than the load stalled Newton on every landing vertex.
     pub contact_stiffness_ratio: Real,
-    /// Least contact penalty stiffness (N/m), for very soft cloth.
+    /// Contact penalty stiffness (N/m) when the ratio gives less. The default 300 N/m holds
+    /// the largest contact loads of a draped shirt (~0.02 N per vertex) within 0.1 mm.
     pub min_contact_stiffness: Real,
-    /// Coulomb friction coefficient between cloth and collider (0 = frictionless).
+    /// Coulomb friction coefficient between cloth and collider. Default 0 (frictionless):
+    /// the static drape is then a function of pose and material alone, which is what the
+    /// networks learn, and the lagged stick/slide friction model (kept for experiments)
+    /// stalls convergence at an RMS residual of ~0.05 on the T-shirt.
     pub friction: Real,
     /// Largest move of any vertex in one Newton step (metres): the whole step is scaled
     /// down to it, so no vertex tunnels through a thin body part.
@@ -50,9 +55,9 @@ impl Default for DrapeSettings {
             max_residual_tolerance: 5e-2,
             gravity: 9.81,
             contact_margin: 0.003,
-            contact_stiffness_ratio: 50.0,
-            min_contact_stiffness: 1e3,
-            friction: 0.3,
+            contact_stiffness_ratio: 0.0,
+            min_contact_stiffness: 300.0,
+            friction: 0.0,
             max_step: 0.02,
         }
     }

@@ -76,7 +76,21 @@ impl Default for SequenceSettings {
     }
 }
 
+/// Where a resumed [`drape_sequence`] picks up: pose `next - 1` is done and `positions` is
+/// its saved result (as stored in a dataset: f32 precision).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequenceResume {
+    /// The first pose still to drape (>= 1).
+    pub next: usize,
+    /// The settled garment at pose `next - 1` (metres).
+    pub positions: Vec<Vec3>,
+}
+
 /// Drapes `garment` of `material` on `body` in every pose of `poses`, in order.
+///
+/// After each pose the state is rounded to f32 precision, the precision datasets store, so
+/// a run resumed from a saved sample ([`SequenceResume`]) continues bit-identically to one
+/// that never stopped.
 ///
 /// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
 /// to each pose through intermediate poses ([`interpolation_steps`] at
@@ -95,6 +109,7 @@ pub fn drape_sequence(
     material: &Material,
     poses: &[Pose],
     settings: &SequenceSettings,
+    resume: Option<SequenceResume>,
     mut on_sample: impl FnMut(usize, &[Vec3], &DrapeStats) -> Result<()>,
 ) -> Result<Vec<DrapeStats>> {
     if settings.intermediate_iterations == 0 {
@@ -110,10 +125,28 @@ pub fn drape_sequence(
         ..full.clone()
     };
     let mut solver = DrapeSolver::new(&model, &full)?;
-    let mut positions = garment.rest.vertices.clone();
-    let mut current = Pose::zero();
-    let mut all = vec![solver.drape(&mut positions, &body.pose(&current), &[])?];
-    for (index, target) in poses.iter().enumerate() {
+    let mut all = Vec::new();
+    let (mut positions, mut current, first) = match resume {
+        None => {
+            let mut positions = garment.rest.vertices.clone();
+            all.push(solver.drape(&mut positions, &body.pose(&Pose::zero()), &[])?);
+            (positions, Pose::zero(), 0)
+        }
+        Some(r) => {
+            if r.next == 0 || r.next > poses.len() || r.positions.len() != garment.vertex_count() {
+                return Err(CoreError::InvalidArgument(format!(
+                    "cannot resume at pose {} of {} with {} positions for a {}-vertex garment",
+                    r.next,
+                    poses.len(),
+                    r.positions.len(),
+                    garment.vertex_count()
+                ))
+                .into());
+            }
+            (r.positions, poses[r.next - 1].clone(), r.next)
+        }
+    };
+    for (index, target) in poses.iter().enumerate().skip(first) {
         let steps = interpolation_steps(&current, target, settings.max_step_rad)?;
         let (last, between) = steps
             .split_last()
@@ -126,6 +159,9 @@ pub fn drape_sequence(
             solver.set_settings(&full)?;
         }
         let stats = solver.drape(&mut positions, &body.pose(last), &[])?;
+        for p in &mut positions {
+            *p = p.map(|c| f64::from(c as f32));
+        }
         on_sample(index, &positions, &stats)?;
         all.push(stats);
         current = target.clone();
