@@ -21,6 +21,11 @@ enum Command {
     Body(cli::body::BodyArgs),
     /// List the fabric presets and their material parameters.
     Materials,
+    /// Generate a ground-truth dataset with the mass-spring solver (resumable, shardable).
+    Simulate(cli::simulate::SimulateArgs),
+    /// Dataset tools.
+    #[command(subcommand)]
+    Dataset(cli::dataset::DatasetCommand),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -29,5 +34,7 @@ fn main() -> anyhow::Result<()> {
         Command::Template(args) => cli::template::run(args),
         Command::Body(args) => cli::body::run(args),
         Command::Materials => cli::materials::run(),
+        Command::Simulate(args) => cli::simulate::run(args),
+        Command::Dataset(command) => cli::dataset::run(command),
     }
 }

@@ -1,6 +1,8 @@
 //! The `garmatnet` command line: one file per subcommand.
 
 pub mod body;
+pub mod dataset;
 pub mod materials;
 pub mod pose_arg;
+pub mod simulate;
 pub mod template;

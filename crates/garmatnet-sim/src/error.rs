@@ -24,6 +24,10 @@ pub enum Error {
         /// The iteration at which non-finite positions appeared.
         iteration: usize,
     },
+    /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
+    /// Finished samples are on disk; run the same command again to resume.
+    #[error("interrupted; finished samples are saved, run the same command again to resume")]
+    Interrupted,
 }
 
 /// Shorthand for results in `garmatnet-sim`.

@@ -7,6 +7,7 @@
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
+pub mod dataset_generator;
 pub mod dataset_reader;
 mod drape_energy;
 pub mod drape_settings;
@@ -23,6 +24,9 @@ pub mod shard;
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
+pub use dataset_generator::{
+    BODY_NAME, GenerateConfig, GenerateReport, SampleDone, dataset_spec, generate_dataset,
+};
 pub use dataset_reader::{DatasetReader, DatasetReport, Summary, check};
 pub use drape_settings::DrapeSettings;
 pub use drape_solver::{DrapeSolver, DrapeStats};

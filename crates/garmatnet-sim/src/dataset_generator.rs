@@ -1,0 +1,259 @@
+//! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body,
+//! written as a resumable, shardable dataset ([`crate::dataset`]).
+//!
+//! Materials run in parallel (rayon), each walking the whole pose sequence in order so every
+//! pose is warm-started from the previous one ([`drape_sequence`]). A material whose first
+//! `k` poses are on disk resumes from pose `k - 1`'s saved garment, and because sequences
+//! round their state to the f32 precision samples are stored in, the resumed run writes the
+//! same bytes an uninterrupted run would (tested).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use garmatnet_core::{
+    CapsuleBody, Garment, LaplacianSmoother, Material, Pose, Resolution, SkinnedBody,
+    SmoothingSettings, Vec3,
+};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::dataset::{DatasetWriter, samples_dir};
+use crate::drape_solver::DrapeStats;
+use crate::error::{Error, Result};
+use crate::garment_drape::{SequenceResume, SequenceSettings, drape_sequence};
+use crate::manifest::{
+    BodyInfo, DatasetSpec, MaterialEntry, SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
+};
+use crate::sample_arrays::{SampleArrays, read_points_npy};
+use crate::shard::Shard;
+
+/// The name datasets record for the procedural body.
+pub const BODY_NAME: &str = "capsule-smpl-neutral";
+
+/// What to generate.
+#[derive(Debug, Clone)]
+pub struct GenerateConfig {
+    /// The dataset directory (created, or resumed when it exists).
+    pub out: PathBuf,
+    /// Named materials (physical ω).
+    pub materials: Vec<(String, Material)>,
+    /// The pose sequence, walked in order for every material.
+    pub poses: Vec<Pose>,
+    /// Each pose's frame index in its source sequence (held-out poses are chosen by it).
+    pub frames: Vec<usize>,
+    /// Template resolution.
+    pub resolution: Resolution,
+    /// Solver and sequence-walking settings.
+    pub sequence: SequenceSettings,
+    /// The smoothing that splits drapes into smooth garment and details.
+    pub smoothing: SmoothingSettings,
+    /// Worker threads (materials in parallel); 0 = rayon's default (all cores).
+    pub threads: usize,
+    /// This process's share of the materials.
+    pub shard: Shard,
+}
+
+/// One finished sample, for progress reporting.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SampleDone {
+    /// Material index.
+    pub material: usize,
+    /// Pose index.
+    pub pose: usize,
+    /// Whether the solver met its residual tolerances.
+    pub converged: bool,
+    /// Solver wall time (milliseconds), the walk from the previous pose included.
+    pub wall_time_ms: f64,
+}
+
+/// What a generation run did.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct GenerateReport {
+    /// Samples this run wrote.
+    pub written: usize,
+    /// Samples of this shard already on disk (skipped).
+    pub skipped: usize,
+    /// Samples of this shard in all.
+    pub shard_samples: usize,
+    /// Written samples whose drape did not meet the residual tolerances.
+    pub not_converged: usize,
+    /// Mean wall time per written sample (milliseconds, per worker).
+    pub mean_sample_ms: f64,
+    /// Wall time of the whole run (seconds).
+    pub wall_time_s: f64,
+}
+
+/// The dataset spec `config` describes (template, body, materials, poses, settings).
+///
+/// # Errors
+/// [`Error::Core`] if the T-shirt cannot be built or the settings cannot be serialised.
+pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<DatasetSpec> {
+    Ok(DatasetSpec {
+        template: TemplateInfo {
+            resolution: config.resolution.name().to_owned(),
+            vertex_count: garment.vertex_count(),
+            hash: format!("{:016x}", garment.template_hash()),
+        },
+        body: BodyInfo {
+            name: BODY_NAME.to_owned(),
+        },
+        materials: config
+            .materials
+            .iter()
+            .map(|(name, m)| MaterialEntry {
+                name: name.clone(),
+                omega: m.as_array(),
+                omega_normalized: m.to_normalized(),
+            })
+            .collect(),
+        poses: config.poses.clone(),
+        frames: config.frames.clone(),
+        solver: serde_json::to_value(&config.sequence)
+            .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("solver settings: {e}")))?,
+        smoothing: SmoothingInfo {
+            lambda: config.smoothing.lambda,
+            iterations: config.smoothing.iterations as u32,
+            weights: format!("{:?}", config.smoothing.weights).to_lowercase(),
+        },
+    })
+}
+
+/// Generates (or resumes) the dataset. `on_sample` is called after each written sample;
+/// `should_stop` is polled between samples and stops the run with [`Error::Interrupted`]
+/// (finished samples stay on disk).
+///
+/// # Errors
+/// [`Error::Interrupted`]; dataset errors (lock held by another process, a different
+/// existing dataset in `out`, unwritable directory); solver errors.
+pub fn generate_dataset(
+    config: &GenerateConfig,
+    on_sample: &(dyn Fn(SampleDone) + Sync),
+    should_stop: &(dyn Fn() -> bool + Sync),
+) -> Result<GenerateReport> {
+    let started = Instant::now();
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(config.resolution, &body)?;
+    let smoother = LaplacianSmoother::new(&garment.rest, config.smoothing.clone())?;
+    let writer = DatasetWriter::open(&config.out, dataset_spec(config, &garment)?)?;
+    let materials: Vec<usize> = (0..config.materials.len())
+        .filter(|&m| config.shard.contains_material(m))
+        .collect();
+    let shard_samples = materials.len() * config.poses.len();
+    let skipped: usize = materials
+        .iter()
+        .map(|&m| {
+            (0..config.poses.len())
+                .filter(|&p| writer.is_done(m, p))
+                .count()
+        })
+        .sum();
+
+    let run_material = |m: usize| -> Result<(usize, usize, f64)> {
+        let n_poses = config.poses.len();
+        let Some(next) = (0..n_poses).find(|&p| !writer.is_done(m, p)) else {
+            return Ok((0, 0, 0.0));
+        };
+        let resume = if next == 0 {
+            None
+        } else {
+            let stem = sample_stem(m, next - 1);
+            let saved = read_points_npy(
+                &samples_dir(&config.out).join(&stem).join("simulated.npy"),
+                &stem,
+            )?;
+            let positions = saved
+                .iter()
+                .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
+                .collect();
+            Some(SequenceResume { next, positions })
+        };
+        let (mut written, mut failed, mut time) = (0, 0, 0.0);
+        let material = &config.materials[m].1;
+        let on_pose = |p: usize, x: &[Vec3], stats: &DrapeStats| -> Result<()> {
+            if should_stop() {
+                return Err(Error::Interrupted);
+            }
+            let transforms = body.skeleton().skinning_transforms(&config.poses[p]);
+            let smooth = smoother.smooth(x)?;
+            let to_f32 = |v: &[Vec3]| {
+                v.iter()
+                    .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                    .collect()
+            };
+            let arrays = SampleArrays {
+                simulated: to_f32(x),
+                smoothed: to_f32(&smooth),
+                body: to_f32(&garment.body_points(&transforms)),
+            };
+            let sample_stats = SampleStats {
+                iterations: stats.iterations as u64,
+                residual: stats.final_residual,
+                max_penetration_m: stats.max_penetration,
+                max_strain: stats.max_strain,
+                wall_time_ms: stats.wall_time_ms,
+                converged: stats.converged,
+            };
+            writer.write_sample(m, p, &arrays, sample_stats)?;
+            written += 1;
+            failed += usize::from(!stats.converged);
+            time += stats.wall_time_ms;
+            on_sample(SampleDone {
+                material: m,
+                pose: p,
+                converged: stats.converged,
+                wall_time_ms: stats.wall_time_ms,
+            });
+            Ok(())
+        };
+        drape_sequence(
+            &garment,
+            &body,
+            material,
+            &config.poses,
+            &config.sequence,
+            resume,
+            on_pose,
+        )?;
+        Ok((written, failed, time))
+    };
+
+    let results: Vec<Result<(usize, usize, f64)>> = if config.threads == 1 {
+        materials.iter().map(|&m| run_material(m)).collect()
+    } else {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(config.threads)
+            .build()
+            .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
+        pool.install(|| materials.par_iter().map(|&m| run_material(m)).collect())
+    };
+    writer.flush()?;
+    let mut report = GenerateReport {
+        skipped,
+        shard_samples,
+        ..GenerateReport::default()
+    };
+    let mut total_ms = 0.0;
+    let mut first_error = None;
+    for r in results {
+        match r {
+            Ok((w, f, t)) => {
+                report.written += w;
+                report.not_converged += f;
+                total_ms += t;
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    report.mean_sample_ms = if report.written > 0 {
+        total_ms / report.written as f64
+    } else {
+        0.0
+    };
+    report.wall_time_s = started.elapsed().as_secs_f64();
+    Ok(report)
+}
