@@ -1,1 +1,50 @@
 //! The two GarMatNet networks in Burn, the typed predictor and model files.
+//!
+//! - [`GarMatNet`]: the paper's MLP (§3.4–3.6), used twice: the generally-fitting net and
+//!   the locally-detailed net. [`BaselineNet`]: the TailorNet-style comparison (no material).
+//! - [`GarMatNetModel`]: both nets, their [`OutputNormalizer`]s and metadata, saved as one
+//!   self-describing `.safetensors` file.
+//! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out`] keeps
+//!   garments outside the body.
+//!
+//! Backends are chosen at run time with [`select_device`]; the CPU (`flex`) is always there,
+//! the GPU with the `wgpu` feature.
+//!
+//! ```
+//! use burn::prelude::*;
+//! use garmatnet_model::{select_device, GarMatNetConfig};
+//!
+//! let device = select_device("cpu")?;
+//! // 50 garment vertices; pose branch 32, material branch 16, merged hidden layer 32.
+//! let net = GarMatNetConfig::new(50, 32, 16, 32).with_alpha(0.5).init(&device);
+//! let pose = Tensor::<2>::zeros([2, 72], &device);
+//! let material = Tensor::<2>::ones([2, 6], &device).mul_scalar(0.5);
+//! assert_eq!(net.forward(pose, material).dims(), [2, 150]);
+//! # Ok::<(), garmatnet_model::Error>(())
+//! ```
+
+pub mod baseline_net;
+pub mod device;
+pub mod error;
+pub mod garmatnet_net;
+pub mod model_file;
+mod model_tensors;
+pub mod output_normalizer;
+pub mod predictor;
+pub mod push_out;
+pub mod scene;
+mod tensor_util;
+#[cfg(test)]
+mod test_util;
+
+pub use baseline_net::{BaselineNet, BaselineNetConfig};
+pub use device::select_device;
+pub use error::{Error, Result};
+pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MATERIAL_DIM, OutputHead};
+pub use model_file::{
+    FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
+};
+pub use output_normalizer::{MIN_STD, OutputNormalizer};
+pub use predictor::{Detail, GarmentMesh, Predictor};
+pub use push_out::{PushOut, PushOutReport, push_out};
+pub use scene::{Character, CharacterOutput, Scene, SceneUpdate};

@@ -1,0 +1,108 @@
+//! The model crate's error type: every variant says what went wrong and what to fix.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in `garmatnet-model`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Bad input caught by `garmatnet-core` (NaN pose or material, wrong lengths,
+    /// out-of-range values, file access). Its message says what to fix.
+    #[error(transparent)]
+    Core(#[from] garmatnet_core::Error),
+
+    /// A model file could not be read or written. Check that the path exists and that its
+    /// directory is writable.
+    #[error("cannot access model file `{path}`: {source}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+
+    /// A model file is damaged or is not a garmatnet model (truncated, bytes changed, a
+    /// tensor missing or of the wrong shape, a checksum mismatch). Copy the file again or
+    /// re-export it from training; do not edit model files by hand.
+    #[error("model file `{path}` is corrupt or not a garmatnet model: {message}")]
+    Corrupt {
+        /// The file that failed to load.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+
+    /// A model file was written by an incompatible version of garmatnet. Re-train or
+    /// re-export the model with this version.
+    #[error(
+        "model file `{path}` has format version {found}, this build reads version {supported}; \
+         re-export the model with this version of garmatnet"
+    )]
+    UnsupportedVersion {
+        /// The file involved.
+        path: PathBuf,
+        /// The version stored in the file.
+        found: u32,
+        /// The version this build reads and writes.
+        supported: u32,
+    },
+
+    /// The model was trained for a different garment template than the one it is used with.
+    /// Use the model trained for this garment, or re-train on this template.
+    #[error(
+        "the model was trained for garment template {model_hash} ({model_vertices} vertices), \
+         but the garment given has template {garment_hash} ({garment_vertices} vertices); \
+         use a model trained on this garment or re-train it"
+    )]
+    TemplateMismatch {
+        /// The template hash stored in the model.
+        model_hash: String,
+        /// The vertex count stored in the model.
+        model_vertices: usize,
+        /// The template hash of the garment it was used with.
+        garment_hash: String,
+        /// The garment's vertex count.
+        garment_vertices: usize,
+    },
+
+    /// A network configuration is unusable (zero sizes, α outside [0, 1], dropout outside
+    /// [0, 1), a rank larger than the output). The message names the field to change.
+    #[error("invalid network configuration: {0}")]
+    InvalidConfig(String),
+
+    /// A tensor handed to the model has the wrong shape (e.g. a PCA basis whose size does not
+    /// match the output). Pass a tensor of the expected shape.
+    #[error("{what} has shape {got:?}, expected {expected:?}")]
+    Shape {
+        /// The tensor involved.
+        what: String,
+        /// The expected shape.
+        expected: Vec<usize>,
+        /// The shape given.
+        got: Vec<usize>,
+    },
+
+    /// The networks produced NaN or infinity. The model is broken (diverged training) or the
+    /// input is far outside the training range; re-train or check the input.
+    #[error(
+        "the prediction for {what} is not finite (first at vertex {vertex}); the model may be broken or the input far outside its training range"
+    )]
+    NonFiniteOutput {
+        /// Which prediction (e.g. `"batch item 3"`).
+        what: String,
+        /// The first vertex with a non-finite coordinate.
+        vertex: usize,
+    },
+
+    /// The requested compute device is not available in this build or on this machine.
+    /// The message says how to get it (e.g. rebuild with `--features wgpu`).
+    #[error("device unavailable: {0}")]
+    DeviceUnavailable(String),
+
+    /// A scene operation named a character that is not in the scene. Insert it first.
+    #[error("no character with id {0} in the scene; insert it with Scene::insert first")]
+    UnknownCharacter(u64),
+}
+
+/// Shorthand for results in `garmatnet-model`.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

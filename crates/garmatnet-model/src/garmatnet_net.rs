@@ -1,0 +1,496 @@
+//! The GarMatNet MLP (paper §3.4–3.6): separate pose and material input branches, a shared
+//! hidden layer and a normalised per-vertex displacement output.
+//!
+//! The same module serves as the generally-fitting network and the locally-detailed network
+//! (two instances with separate weights).
+
+use burn::module::{Initializer, Param};
+use burn::nn::{Dropout, DropoutConfig, Linear, LinearConfig};
+use burn::prelude::*;
+use burn::tensor::module::linear;
+use garmatnet_core::{DisplacementFrame, POSE_DIM};
+
+use crate::error::{Error, Result};
+
+/// The number of material coordinates ω (paper §3.1).
+pub const MATERIAL_DIM: usize = 6;
+
+/// Configuration of a [`GarMatNet`].
+///
+/// θ (72) × (1 − α) → Linear → tanh ┐
+///                                   ├ concat → Linear → tanh → dropout → Linear → 3n
+/// ω (6)  × α       → Linear → tanh ┘
+///
+/// With `output_rank = Some(k)` the last layer outputs `k` coefficients that multiply a
+/// basis `[k, 3n]` (plus a mean `[3n]`) held as module parameters: set them from PCA of the
+/// training displacements with [`GarMatNet::set_output_basis`].
+#[derive(Config, Debug)]
+pub struct GarMatNetConfig {
+    /// The number of garment vertices n; the output has 3n values.
+    pub vertex_count: usize,
+    /// Width of the pose branch's hidden layer.
+    pub pose_hidden: usize,
+    /// Width of the material branch's hidden layer.
+    pub material_hidden: usize,
+    /// Width of the hidden layer after the merge.
+    pub hidden: usize,
+    /// Length of the pose input θ (SMPL: 24 joints × 3).
+    #[config(default = 72)]
+    pub pose_dim: usize,
+    /// Length of the material input ω (normalised to [0, 1]).
+    #[config(default = 6)]
+    pub material_dim: usize,
+    /// Dropout probability after the merged hidden layer (acts only while training).
+    #[config(default = 0.1)]
+    pub dropout: f64,
+    /// The weight controller α ∈ [0, 1] (paper §3.6): ω is scaled by α and θ by 1 − α.
+    #[config(default = 0.5)]
+    pub alpha: f64,
+    /// `Some(k)`: low-rank output through a `[k, 3n]` basis; `None`: a full output layer.
+    #[config(default = "None")]
+    pub output_rank: Option<usize>,
+    /// The frame the predicted displacements are expressed in.
+    #[config(default = "DisplacementFrame::World")]
+    pub displacement_frame: DisplacementFrame,
+    /// Kaiming-normal gain of the hidden layers (std = gain / √fan_in). 5/3 is the usual gain
+    /// for tanh; the output layer uses gain 1 because it feeds no nonlinearity.
+    #[config(default = 1.6666666666666667)]
+    pub init_gain: f64,
+}
+
+impl GarMatNetConfig {
+    /// The number of output values, 3n.
+    #[must_use]
+    pub fn output_dim(&self) -> usize {
+        3 * self.vertex_count
+    }
+
+    /// Checks that every size is positive and α, dropout and the rank are in range.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the field to change.
+    pub fn validate(&self) -> Result<()> {
+        let sizes = [
+            ("vertex_count", self.vertex_count),
+            ("pose_hidden", self.pose_hidden),
+            ("material_hidden", self.material_hidden),
+            ("hidden", self.hidden),
+            ("pose_dim", self.pose_dim),
+            ("material_dim", self.material_dim),
+        ];
+        if let Some((name, _)) = sizes.iter().find(|(_, v)| *v == 0) {
+            return Err(Error::InvalidConfig(format!("{name} must be positive")));
+        }
+        if self.pose_dim != POSE_DIM || self.material_dim != MATERIAL_DIM {
+            return Err(Error::InvalidConfig(format!(
+                "pose_dim must be {POSE_DIM} and material_dim {MATERIAL_DIM}, got {} and {}",
+                self.pose_dim, self.material_dim
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.alpha) {
+            return Err(Error::InvalidConfig(format!(
+                "alpha = {} must lie in [0, 1]",
+                self.alpha
+            )));
+        }
+        if !(0.0..1.0).contains(&self.dropout) {
+            return Err(Error::InvalidConfig(format!(
+                "dropout = {} must lie in [0, 1)",
+                self.dropout
+            )));
+        }
+        if !(self.init_gain.is_finite() && self.init_gain > 0.0) {
+            return Err(Error::InvalidConfig(
+                "init_gain must be a positive number".into(),
+            ));
+        }
+        if let Some(k) = self.output_rank
+            && (k == 0 || k > self.output_dim())
+        {
+            return Err(Error::InvalidConfig(format!(
+                "output_rank = {k} must lie in [1, 3n = {}]",
+                self.output_dim()
+            )));
+        }
+        Ok(())
+    }
+
+    /// A network with Kaiming-normal weights and zero biases.
+    ///
+    /// # Panics
+    /// If the configuration is invalid; call [`GarMatNetConfig::validate`] first for
+    /// configurations that come from users.
+    #[must_use]
+    pub fn init(&self, device: &Device) -> GarMatNet {
+        if let Err(e) = self.validate() {
+            panic!("GarMatNetConfig::init on an invalid configuration: {e}");
+        }
+        let hidden_init = Initializer::KaimingNormal {
+            gain: self.init_gain,
+            fan_out_only: false,
+        };
+        let output_init = Initializer::KaimingNormal {
+            gain: 1.0,
+            fan_out_only: false,
+        };
+        let layer = |d_in, d_out, init: &Initializer| {
+            let mut l = LinearConfig::new(d_in, d_out)
+                .with_initializer(init.clone())
+                .init(device);
+            // He initialisation zeroes biases; Burn's initialiser would draw them too.
+            l.bias = Some(Param::from_tensor(Tensor::zeros([d_out], device)));
+            l
+        };
+        let out_width = self.output_rank.unwrap_or(self.output_dim());
+        let (basis, basis_mean) = match self.output_rank {
+            Some(k) => {
+                // A placeholder until the trainer sets the PCA basis: random directions of
+                // unit expected norm, so the untrained net still produces varied output.
+                let std = 1.0 / (k as f64).sqrt();
+                let init = Initializer::Normal { mean: 0.0, std };
+                let b: Param<Tensor<2>> =
+                    init.init_with([k, self.output_dim()], None, None, device);
+                let m = Param::from_tensor(Tensor::zeros([self.output_dim()], device));
+                (Some(b), Some(m))
+            }
+            None => (None, None),
+        };
+        GarMatNet {
+            pose_in: layer(self.pose_dim, self.pose_hidden, &hidden_init),
+            material_in: layer(self.material_dim, self.material_hidden, &hidden_init),
+            merge: layer(
+                self.pose_hidden + self.material_hidden,
+                self.hidden,
+                &hidden_init,
+            ),
+            dropout: DropoutConfig::new(self.dropout).init(),
+            output: layer(self.hidden, out_width, &output_init),
+            basis,
+            basis_mean,
+            config: self.clone(),
+        }
+    }
+}
+
+/// The GarMatNet MLP; see [`GarMatNetConfig`] for the architecture.
+#[derive(Module, Debug)]
+pub struct GarMatNet {
+    pub(crate) pose_in: Linear,
+    pub(crate) material_in: Linear,
+    pub(crate) merge: Linear,
+    pub(crate) dropout: Dropout,
+    pub(crate) output: Linear,
+    pub(crate) basis: Option<Param<Tensor<2>>>,
+    pub(crate) basis_mean: Option<Param<Tensor<1>>>,
+    #[module(skip)]
+    pub(crate) config: GarMatNetConfig,
+}
+
+/// The output layer restricted to a subset of vertices: a row-subset forward computes only
+/// those output columns. Build once per subset with [`GarMatNet::output_head`] and reuse.
+#[derive(Debug, Clone)]
+pub struct OutputHead {
+    vertices: Option<Vec<usize>>,
+    weight: Tensor<2>,
+    bias: Tensor<1>,
+    basis: Option<(Tensor<2>, Tensor<1>)>,
+}
+
+impl OutputHead {
+    /// The vertices this head computes, in output order (`None`: all of them).
+    #[must_use]
+    pub fn vertices(&self) -> Option<&[usize]> {
+        self.vertices.as_deref()
+    }
+}
+
+impl GarMatNet {
+    /// The configuration the net was built from.
+    #[must_use]
+    pub fn config(&self) -> &GarMatNetConfig {
+        &self.config
+    }
+
+    /// The number of garment vertices n.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.config.vertex_count
+    }
+
+    /// The low-rank output's rank `k`, if the net has one.
+    #[must_use]
+    pub fn output_rank(&self) -> Option<usize> {
+        self.basis.as_ref().map(|b| b.dims()[0])
+    }
+
+    /// Normalised displacements for a batch.
+    ///
+    /// # Shapes
+    /// - `pose`: `[B, 72]` (axis-angle, radians)
+    /// - `material`: `[B, 6]` (normalised to [0, 1])
+    /// - output: `[B, 3n]`, vertex-major (`x0 y0 z0 x1 …`), normalised
+    ///
+    /// # Panics
+    /// If the input widths are not 72 and 6 (Burn's shape assertion).
+    pub fn forward(&self, pose: Tensor<2>, material: Tensor<2>) -> Tensor<2> {
+        let hidden = self.hidden(self.pose_features(pose), self.material_features(material));
+        self.forward_all(hidden)
+    }
+
+    /// The pose branch's activation, tanh(W (1 − α) θ + b).
+    ///
+    /// # Shapes
+    /// - `pose`: `[B, 72]`
+    /// - output: `[B, pose_hidden]`
+    pub fn pose_features(&self, pose: Tensor<2>) -> Tensor<2> {
+        self.pose_in
+            .forward(pose.mul_scalar(1.0 - self.config.alpha))
+            .tanh()
+    }
+
+    /// The material branch's activation, tanh(W α ω + b). It depends on ω only, so callers
+    /// that see the same material every frame can cache it.
+    ///
+    /// # Shapes
+    /// - `material`: `[B, 6]`
+    /// - output: `[B, material_hidden]`
+    pub fn material_features(&self, material: Tensor<2>) -> Tensor<2> {
+        self.material_in
+            .forward(material.mul_scalar(self.config.alpha))
+            .tanh()
+    }
+
+    /// The merged hidden layer, dropout(tanh(W [pose ‖ material] + b)).
+    ///
+    /// # Shapes
+    /// - `pose_features`: `[B, pose_hidden]`
+    /// - `material_features`: `[B, material_hidden]`
+    /// - output: `[B, hidden]`
+    pub fn hidden(&self, pose_features: Tensor<2>, material_features: Tensor<2>) -> Tensor<2> {
+        let x = Tensor::cat(vec![pose_features, material_features], 1);
+        self.dropout.forward(self.merge.forward(x).tanh())
+    }
+
+    /// The output layer for all vertices.
+    ///
+    /// # Shapes
+    /// - `hidden`: `[B, hidden]`
+    /// - output: `[B, 3n]`
+    pub fn forward_all(&self, hidden: Tensor<2>) -> Tensor<2> {
+        let y = self.output.forward(hidden);
+        match (&self.basis, &self.basis_mean) {
+            (Some(basis), Some(mean)) => linear(y, basis.val(), Some(mean.val())),
+            _ => y,
+        }
+    }
+
+    /// The output layer restricted to `vertices` (`None`: all), with the weight/bias (or
+    /// basis/mean) columns of those vertices sliced out once.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (out of range) if a vertex index is not below n.
+    pub fn output_head(&self, vertices: Option<&[usize]>) -> Result<OutputHead> {
+        let weight = self.output.weight.val();
+        let bias = self.output.bias.as_ref().map(|b| b.val());
+        let bias = bias.unwrap_or_else(|| Tensor::zeros([weight.dims()[1]], &weight.device()));
+        let basis = match (&self.basis, &self.basis_mean) {
+            (Some(b), Some(m)) => Some((b.val(), m.val())),
+            _ => None,
+        };
+        let Some(vertices) = vertices else {
+            return Ok(OutputHead {
+                vertices: None,
+                weight,
+                bias,
+                basis,
+            });
+        };
+        if let Some(&bad) = vertices.iter().find(|&&v| v >= self.config.vertex_count) {
+            return Err(garmatnet_core::Error::OutOfRange {
+                what: "vertex index of the subset".into(),
+                value: bad as f64,
+                min: 0.0,
+                max: (self.config.vertex_count - 1) as f64,
+                hint: "; subset indices must address the garment template's vertices".into(),
+            }
+            .into());
+        }
+        let columns: Vec<i64> = vertices
+            .iter()
+            .flat_map(|&v| (0..3).map(move |c| (3 * v + c) as i64))
+            .collect();
+        let device = weight.device();
+        let index =
+            Tensor::<1, Int>::from_data(TensorData::new(columns.clone(), [columns.len()]), &device);
+        let vertices = Some(vertices.to_vec());
+        Ok(match basis {
+            // Low rank: all k coefficients are needed; only the basis columns are sliced.
+            Some((b, m)) => OutputHead {
+                vertices,
+                weight,
+                bias,
+                basis: Some((b.select(1, index.clone()), m.select(0, index))),
+            },
+            None => OutputHead {
+                vertices,
+                weight: weight.select(1, index.clone()),
+                bias: bias.select(0, index),
+                basis: None,
+            },
+        })
+    }
+
+    /// The output layer through a precomputed [`OutputHead`].
+    ///
+    /// # Shapes
+    /// - `hidden`: `[B, hidden]`
+    /// - output: `[B, 3m]` for a head of `m` vertices (`m = n` without a subset)
+    pub fn forward_head(&self, hidden: Tensor<2>, head: &OutputHead) -> Tensor<2> {
+        let y = linear(hidden, head.weight.clone(), Some(head.bias.clone()));
+        match &head.basis {
+            Some((b, m)) => linear(y, b.clone(), Some(m.clone())),
+            None => y,
+        }
+    }
+
+    /// Sets the low-rank output basis (e.g. PCA components of the normalised training
+    /// displacements) and its mean. The basis stays a parameter, so training may fine-tune it.
+    ///
+    /// # Shapes
+    /// - `basis`: `[k, 3n]` (one component per row)
+    /// - `mean`: `[3n]`
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] if the net has no low-rank output; [`Error::Shape`] if the
+    /// shapes differ from the above.
+    pub fn set_output_basis(&mut self, basis: Tensor<2>, mean: Tensor<1>) -> Result<()> {
+        let Some(k) = self.output_rank() else {
+            return Err(Error::InvalidConfig(
+                "set_output_basis needs a net built with output_rank = Some(k)".into(),
+            ));
+        };
+        let n3 = 3 * self.config.vertex_count;
+        if basis.dims() != [k, n3] {
+            return Err(Error::Shape {
+                what: "output basis".into(),
+                expected: vec![k, n3],
+                got: basis.dims().to_vec(),
+            });
+        }
+        if mean.dims() != [n3] {
+            return Err(Error::Shape {
+                what: "output basis mean".into(),
+                expected: vec![n3],
+                got: mean.dims().to_vec(),
+            });
+        }
+        self.basis = Some(Param::from_tensor(basis));
+        self.basis_mean = Some(Param::from_tensor(mean));
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{cpu, random_inputs, to_vec};
+    use approx::assert_abs_diff_eq;
+
+    fn config() -> GarMatNetConfig {
+        GarMatNetConfig::new(50, 32, 16, 32)
+    }
+
+    #[test]
+    fn forward_shapes_full_and_low_rank() {
+        let dev = cpu();
+        let (p, m) = random_inputs(4, 1, &dev);
+        let net = config().init(&dev);
+        assert_eq!(net.forward(p.clone(), m.clone()).dims(), [4, 150]);
+        let low = config().with_output_rank(Some(8)).init(&dev);
+        assert_eq!(low.output_rank(), Some(8));
+        assert_eq!(low.forward(p, m).dims(), [4, 150]);
+    }
+
+    #[test]
+    fn alpha_zero_ignores_material_and_alpha_one_ignores_pose() {
+        let dev = cpu();
+        let (p1, m1) = random_inputs(3, 2, &dev);
+        let (p2, m2) = random_inputs(3, 3, &dev);
+        let net = config().with_alpha(0.0).init(&dev);
+        let a = to_vec(net.forward(p1.clone(), m1.clone()));
+        let b = to_vec(net.forward(p1.clone(), m2.clone()));
+        assert_eq!(a, b, "alpha = 0 must ignore the material");
+        assert_ne!(
+            a,
+            to_vec(net.forward(p2.clone(), m1.clone())),
+            "but not the pose"
+        );
+
+        let net = config().with_alpha(1.0).init(&dev);
+        let a = to_vec(net.forward(p1.clone(), m1.clone()));
+        assert_eq!(
+            a,
+            to_vec(net.forward(p2, m1.clone())),
+            "alpha = 1 must ignore the pose"
+        );
+        assert_ne!(a, to_vec(net.forward(p1, m2)), "but not the material");
+    }
+
+    #[test]
+    fn subset_head_matches_full_output_columns() {
+        let dev = cpu();
+        let (p, m) = random_inputs(3, 4, &dev);
+        for rank in [None, Some(6)] {
+            let net = config().with_output_rank(rank).init(&dev);
+            let full = to_vec(net.forward(p.clone(), m.clone()));
+            let subset = [7usize, 0, 49, 13];
+            let head = net.output_head(Some(&subset)).unwrap();
+            let h = net.hidden(
+                net.pose_features(p.clone()),
+                net.material_features(m.clone()),
+            );
+            let part = to_vec(net.forward_head(h, &head));
+            for b in 0..3 {
+                for (i, &v) in subset.iter().enumerate() {
+                    for c in 0..3 {
+                        assert_abs_diff_eq!(
+                            part[b * 12 + 3 * i + c],
+                            full[b * 150 + 3 * v + c],
+                            epsilon = 1e-5
+                        );
+                    }
+                }
+            }
+        }
+        let net = config().init(&dev);
+        assert!(net.output_head(Some(&[50])).is_err());
+    }
+
+    #[test]
+    fn set_output_basis_checks_shapes() {
+        let dev = cpu();
+        let mut net = config().with_output_rank(Some(4)).init(&dev);
+        assert!(
+            net.set_output_basis(Tensor::zeros([4, 149], &dev), Tensor::zeros([150], &dev))
+                .is_err()
+        );
+        net.set_output_basis(Tensor::zeros([4, 150], &dev), Tensor::ones([150], &dev))
+            .unwrap();
+        let (p, m) = random_inputs(2, 5, &dev);
+        assert!(to_vec(net.forward(p, m)).iter().all(|&v| v == 1.0));
+        let mut full = config().init(&dev);
+        assert!(
+            full.set_output_basis(Tensor::zeros([4, 150], &dev), Tensor::zeros([150], &dev))
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn invalid_configs_are_refused() {
+        assert!(config().with_alpha(1.5).validate().is_err());
+        assert!(config().with_dropout(1.0).validate().is_err());
+        assert!(config().with_output_rank(Some(151)).validate().is_err());
+        assert!(GarMatNetConfig::new(0, 1, 1, 1).validate().is_err());
+        assert!(config().validate().is_ok());
+    }
+}

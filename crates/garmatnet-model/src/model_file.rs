@@ -1,0 +1,462 @@
+//! A trained GarMatNet model and its self-describing, versioned `.safetensors` file.
+//!
+//! # File layout (format version 1)
+//! A standard safetensors file (loadable by `safetensors.numpy.load_file` or PyTorch):
+//! - tensors, for `net` in `fitting`, `local` (f32, Burn's `[in, out]` weight layout — the
+//!   transpose of `torch.nn.Linear.weight`):
+//!   `{net}.pose_in.weight [72, pose_hidden]`, `{net}.pose_in.bias [pose_hidden]`,
+//!   `{net}.material_in.weight [6, material_hidden]`, `{net}.material_in.bias`,
+//!   `{net}.merge.weight [pose_hidden + material_hidden, hidden]`, `{net}.merge.bias`,
+//!   `{net}.output.weight [hidden, 3n or k]`, `{net}.output.bias`, and with a low-rank
+//!   output `{net}.basis [k, 3n]`, `{net}.basis_mean [3n]`;
+//!   normalisers (f64): `{net}_norm.mean [3n]`, `{net}_norm.std [3n]`.
+//! - `__metadata__`: `format = "garmatnet-model"`, `garmatnet` = a JSON document (format
+//!   version, both nets' configs, displacement frame, template hash / resolution / vertex
+//!   count, training provenance) and `garmatnet_checksum` = FNV-1a 64 (hex) over the document
+//!   and every tensor's name, dtype, shape and bytes, so any changed byte is detected.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use burn::prelude::*;
+use garmatnet_core::{DisplacementFrame, Real};
+use safetensors::{SafeTensors, tensor::TensorView};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::garmatnet_net::{GarMatNet, GarMatNetConfig};
+use crate::model_tensors::{
+    TensorSource, checksum, net_from_tensors, net_tensors, norm_tensors, write_atomic,
+};
+use crate::output_normalizer::OutputNormalizer;
+
+/// The model file format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The `format` value in every model file's metadata.
+pub const FORMAT_NAME: &str = "garmatnet-model";
+
+/// The garment template a model was trained on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TemplateInfo {
+    /// The template's content hash, as the garment builder reports it.
+    pub hash: String,
+    /// The template's resolution parameter (its target edge length, metres).
+    pub resolution: Real,
+    /// The template's vertex count n.
+    pub vertex_count: usize,
+}
+
+/// How a model was trained: free-form, for reproducibility. Every field is optional in files.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TrainingProvenance {
+    /// Hash of the training data set.
+    pub dataset_hash: String,
+    /// The command line that trained the model.
+    pub command: String,
+    /// The random seed.
+    pub seed: u64,
+    /// Epochs trained (the longer of the two nets under early stopping).
+    pub epochs: usize,
+    /// Named final losses, e.g. `"fitting_val_mse"` (units as the trainer names them).
+    pub losses: BTreeMap<String, f64>,
+    /// Anything else the trainer wants to keep.
+    pub extra: serde_json::Value,
+}
+
+/// Everything about a model that is not a weight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelMeta {
+    /// The garment template the model predicts.
+    pub template: TemplateInfo,
+    /// How it was trained.
+    pub provenance: TrainingProvenance,
+}
+
+/// A trained GarMatNet: the generally-fitting and locally-detailed networks, their output
+/// normalisers and the model's metadata.
+#[derive(Debug, Clone)]
+pub struct GarMatNetModel {
+    /// Predicts the normalised displacement from the body to the smoothed garment.
+    pub fitting: GarMatNet,
+    /// Predicts the normalised displacement from the smoothed to the full garment.
+    pub local: GarMatNet,
+    /// De-normalises the fitting net's output (metres).
+    pub fitting_norm: OutputNormalizer,
+    /// De-normalises the local net's output (metres).
+    pub local_norm: OutputNormalizer,
+    /// Template, provenance.
+    pub meta: ModelMeta,
+}
+
+/// The JSON document in the file's `__metadata__["garmatnet"]`.
+#[derive(Serialize, Deserialize)]
+struct Header {
+    format: String,
+    format_version: u32,
+    displacement_frame: DisplacementFrame,
+    fitting: GarMatNetConfig,
+    local: GarMatNetConfig,
+    template: TemplateInfo,
+    provenance: TrainingProvenance,
+}
+
+impl GarMatNetModel {
+    /// The frame the nets' displacements are expressed in.
+    #[must_use]
+    pub fn displacement_frame(&self) -> DisplacementFrame {
+        self.fitting.config().displacement_frame
+    }
+
+    /// The garment vertex count n.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.meta.template.vertex_count
+    }
+
+    /// Checks that the nets, normalisers and template agree with each other.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming what disagrees.
+    pub fn validate(&self) -> Result<()> {
+        let n = self.meta.template.vertex_count;
+        for (name, net, norm) in [
+            ("fitting", &self.fitting, &self.fitting_norm),
+            ("local", &self.local, &self.local_norm),
+        ] {
+            net.config().validate()?;
+            if net.vertex_count() != n || norm.dim() != 3 * n {
+                return Err(Error::InvalidConfig(format!(
+                    "the {name} net has {} vertices and its normaliser {} values, but the \
+                     template has {n} vertices ({} values)",
+                    net.vertex_count(),
+                    norm.dim(),
+                    3 * n
+                )));
+            }
+        }
+        if self.fitting.config().displacement_frame != self.local.config().displacement_frame {
+            return Err(Error::InvalidConfig(
+                "the fitting and local nets must use the same displacement frame".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a model trained for another garment template.
+    ///
+    /// # Errors
+    /// [`Error::TemplateMismatch`] if `hash` or `vertex_count` differ from the model's.
+    pub fn ensure_template(&self, hash: &str, vertex_count: usize) -> Result<()> {
+        let t = &self.meta.template;
+        if t.hash != hash || t.vertex_count != vertex_count {
+            return Err(Error::TemplateMismatch {
+                model_hash: t.hash.clone(),
+                model_vertices: t.vertex_count,
+                garment_hash: hash.to_owned(),
+                garment_vertices: vertex_count,
+            });
+        }
+        Ok(())
+    }
+
+    /// Writes the model to `path` atomically (a temporary file in the same directory,
+    /// renamed over `path` once complete).
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] if the model is inconsistent; [`Error::Io`] if the file
+    /// cannot be written.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        self.validate()?;
+        let header = Header {
+            format: FORMAT_NAME.into(),
+            format_version: FORMAT_VERSION,
+            displacement_frame: self.displacement_frame(),
+            fitting: self.fitting.config().clone(),
+            local: self.local.config().clone(),
+            template: self.meta.template.clone(),
+            provenance: self.meta.provenance.clone(),
+        };
+        let document = serde_json::to_string(&header)
+            .map_err(|e| Error::InvalidConfig(format!("cannot serialise the model header: {e}")))?;
+        let mut tensors = net_tensors("fitting", &self.fitting);
+        tensors.extend(net_tensors("local", &self.local));
+        tensors.extend(norm_tensors("fitting_norm", &self.fitting_norm));
+        tensors.extend(norm_tensors("local_norm", &self.local_norm));
+        tensors.sort_by(|a, b| a.name.cmp(&b.name));
+        let checksum = checksum(
+            &document,
+            tensors
+                .iter()
+                .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
+        );
+        let metadata = HashMap::from([
+            ("format".to_owned(), FORMAT_NAME.to_owned()),
+            ("garmatnet".to_owned(), document),
+            ("garmatnet_checksum".to_owned(), format!("{checksum:016x}")),
+        ]);
+        let views = tensors.iter().map(|t| {
+            let view = TensorView::new(t.dtype, t.shape.clone(), &t.bytes)
+                .unwrap_or_else(|e| panic!("tensor {} has inconsistent bytes: {e}", t.name));
+            (t.name.clone(), view)
+        });
+        let bytes = safetensors::serialize(views, Some(metadata))
+            .map_err(|e| Error::InvalidConfig(format!("cannot encode the model: {e}")))?;
+        write_atomic(path, &bytes)
+    }
+
+    /// Reads and fully validates a model file: format and version, checksum, tensor shapes
+    /// against the stored configs, finiteness of every weight.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the file cannot be read; [`Error::UnsupportedVersion`] for another
+    /// format version; [`Error::Corrupt`] for anything damaged or inconsistent.
+    pub fn load(path: impl AsRef<Path>, device: &Device) -> Result<Self> {
+        let path = path.as_ref();
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let corrupt = |message: String| Error::Corrupt {
+            path: path.to_owned(),
+            message,
+        };
+        let file = SafeTensors::deserialize(&bytes)
+            .map_err(|e| corrupt(format!("not a readable safetensors file ({e})")))?;
+        let (_, raw_meta) = SafeTensors::read_metadata(&bytes)
+            .map_err(|e| corrupt(format!("unreadable header ({e})")))?;
+        let meta = raw_meta
+            .metadata()
+            .as_ref()
+            .ok_or_else(|| corrupt("no __metadata__".into()))?;
+        if meta.get("format").map(String::as_str) != Some(FORMAT_NAME) {
+            return Err(corrupt(format!("metadata `format` is not `{FORMAT_NAME}`")));
+        }
+        let document = meta
+            .get("garmatnet")
+            .ok_or_else(|| corrupt("no `garmatnet` metadata".into()))?;
+        let value: serde_json::Value = serde_json::from_str(document)
+            .map_err(|e| corrupt(format!("the model document is not JSON ({e})")))?;
+        let version = value
+            .get("format_version")
+            .and_then(serde_json::Value::as_u64);
+        match version {
+            Some(v) if v == u64::from(FORMAT_VERSION) => {}
+            Some(v) => {
+                return Err(Error::UnsupportedVersion {
+                    path: path.to_owned(),
+                    found: u32::try_from(v).unwrap_or(u32::MAX),
+                    supported: FORMAT_VERSION,
+                });
+            }
+            None => return Err(corrupt("the model document has no format_version".into())),
+        }
+        let mut views: Vec<(String, TensorView<'_>)> = file.tensors();
+        views.sort_by(|a, b| a.0.cmp(&b.0));
+        let expected = meta
+            .get("garmatnet_checksum")
+            .ok_or_else(|| corrupt("no checksum".into()))?;
+        let actual = checksum(
+            document,
+            views
+                .iter()
+                .map(|(n, v)| (&**n, v.dtype(), v.shape(), v.data())),
+        );
+        if *expected != format!("{actual:016x}") {
+            return Err(corrupt(format!(
+                "checksum mismatch (stored {expected}, computed {actual:016x}): bytes were changed"
+            )));
+        }
+        let header: Header = serde_json::from_value(value)
+            .map_err(|e| corrupt(format!("the model document is malformed ({e})")))?;
+        if header.format != FORMAT_NAME {
+            return Err(corrupt(format!("document format is not `{FORMAT_NAME}`")));
+        }
+        let mut tensors = TensorSource {
+            views: views.into_iter().collect(),
+            path,
+        };
+        let mut load_net = |prefix: &str, mut config: GarMatNetConfig| -> Result<GarMatNet> {
+            if config.displacement_frame != header.displacement_frame {
+                return Err(corrupt(format!(
+                    "the {prefix} net's displacement frame disagrees"
+                )));
+            }
+            config.displacement_frame = header.displacement_frame;
+            config
+                .validate()
+                .map_err(|e| corrupt(format!("the {prefix} net: {e}")))?;
+            net_from_tensors(prefix, config, &mut tensors, device)
+        };
+        let fitting = load_net("fitting", header.fitting)?;
+        let local = load_net("local", header.local)?;
+        let n3 = 3 * header.template.vertex_count;
+        let mut load_norm = |prefix: &str| -> Result<OutputNormalizer> {
+            let mean = tensors.f64(&format!("{prefix}.mean"), &[n3])?;
+            let std = tensors.f64(&format!("{prefix}.std"), &[n3])?;
+            OutputNormalizer::from_parts(mean, std).map_err(|e| corrupt(format!("{prefix}: {e}")))
+        };
+        let fitting_norm = load_norm("fitting_norm")?;
+        let local_norm = load_norm("local_norm")?;
+        if let Some(extra) = tensors.views.keys().next() {
+            return Err(corrupt(format!("unexpected tensor `{extra}`")));
+        }
+        let model = Self {
+            fitting,
+            local,
+            fitting_norm,
+            local_norm,
+            meta: ModelMeta {
+                template: header.template,
+                provenance: header.provenance,
+            },
+        };
+        model.validate().map_err(|e| corrupt(e.to_string()))?;
+        Ok(model)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{cpu, random_inputs, small_model, to_vec};
+
+    fn predictions(model: &GarMatNetModel, dev: &Device) -> (Vec<f32>, Vec<f32>) {
+        let (p, m) = random_inputs(3, 11, dev);
+        (
+            to_vec(model.fitting.forward(p.clone(), m.clone())),
+            to_vec(model.local.forward(p, m)),
+        )
+    }
+
+    #[test]
+    fn save_load_round_trip_is_bit_exact() {
+        let dev = cpu();
+        let dir = tempfile::tempdir().unwrap();
+        for rank in [None, Some(5)] {
+            let mut model = small_model(3, rank, &dev);
+            model.meta.provenance.command = "garmatnet train --seed 3".into();
+            model
+                .meta
+                .provenance
+                .losses
+                .insert("fitting_val_mse".into(), 0.25);
+            let path = dir.path().join("m.safetensors");
+            model.save(&path).unwrap();
+            let back = GarMatNetModel::load(&path, &dev).unwrap();
+            assert_eq!(predictions(&model, &dev), predictions(&back, &dev));
+            assert_eq!(back.meta, model.meta);
+            assert_eq!(back.fitting_norm, model.fitting_norm);
+            assert_eq!(back.local_norm, model.local_norm);
+            assert_eq!(back.fitting.output_rank(), rank);
+            assert_eq!(back.fitting.config().alpha, model.fitting.config().alpha);
+        }
+    }
+
+    #[test]
+    fn truncated_or_flipped_files_are_errors_not_panics() {
+        let dev = cpu();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        small_model(4, Some(3), &dev).save(&path).unwrap();
+        let good = std::fs::read(&path).unwrap();
+        let header_len = u64::from_le_bytes(good[..8].try_into().unwrap()) as usize;
+        let bad = dir.path().join("bad.safetensors");
+        let mut offsets: Vec<usize> = (0..good.len()).step_by(good.len() / 37).collect();
+        offsets.extend([
+            0,
+            1,
+            7,
+            8,
+            9,
+            header_len / 2,
+            header_len + 7,
+            header_len + 8,
+            good.len() - 1,
+        ]);
+        for &cut in &offsets {
+            std::fs::write(&bad, &good[..cut]).unwrap();
+            assert!(
+                GarMatNetModel::load(&bad, &dev).is_err(),
+                "truncated at {cut} loaded"
+            );
+            let mut flipped = good.clone();
+            flipped[cut] ^= 0xFF;
+            std::fs::write(&bad, &flipped).unwrap();
+            let err = GarMatNetModel::load(&bad, &dev);
+            assert!(err.is_err(), "byte {cut} flipped loaded");
+        }
+        let mut flipped = good.clone();
+        flipped[header_len + 8 + 100] ^= 0x01; // one bit in the weights
+        std::fs::write(&bad, &flipped).unwrap();
+        assert!(matches!(
+            GarMatNetModel::load(&bad, &dev),
+            Err(Error::Corrupt { .. })
+        ));
+        assert!(matches!(
+            GarMatNetModel::load(dir.path().join("missing.safetensors"), &dev),
+            Err(Error::Io { .. })
+        ));
+    }
+
+    #[test]
+    fn other_format_versions_are_refused_with_a_version_error() {
+        let dev = cpu();
+        let model = small_model(5, None, &dev);
+        let mut tensors = net_tensors("fitting", &model.fitting);
+        tensors.sort_by(|a, b| a.name.cmp(&b.name));
+        let document = r#"{"format":"garmatnet-model","format_version":99}"#.to_owned();
+        let sum = checksum(
+            &document,
+            tensors
+                .iter()
+                .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
+        );
+        let metadata = HashMap::from([
+            ("format".to_owned(), FORMAT_NAME.to_owned()),
+            ("garmatnet".to_owned(), document),
+            ("garmatnet_checksum".to_owned(), format!("{sum:016x}")),
+        ]);
+        let views = tensors.iter().map(|t| {
+            (
+                t.name.clone(),
+                TensorView::new(t.dtype, t.shape.clone(), &t.bytes).unwrap(),
+            )
+        });
+        let bytes = safetensors::serialize(views, Some(metadata)).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v99.safetensors");
+        std::fs::write(&path, bytes).unwrap();
+        let err = GarMatNetModel::load(&path, &dev).unwrap_err();
+        assert!(
+            matches!(err, Error::UnsupportedVersion { found: 99, .. }),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn template_mismatch_is_refused_with_a_message() {
+        let model = small_model(6, None, &cpu());
+        model.ensure_template("test-template", 50).unwrap();
+        let err = model.ensure_template("other", 50).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("trained for garment template test-template"),
+            "{err}"
+        );
+        assert!(model.ensure_template("test-template", 51).is_err());
+    }
+
+    #[test]
+    fn inconsistent_models_are_not_saved() {
+        let dev = cpu();
+        let mut model = small_model(7, None, &dev);
+        model.fitting_norm = OutputNormalizer::identity(3);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        assert!(model.save(&path).is_err());
+        assert!(!path.exists(), "a refused save must not leave a file");
+    }
+}

@@ -1,0 +1,577 @@
+//! The typed prediction API: pose + material in, garment mesh out.
+//!
+//! A garment vertex is its body anchor posed with the skeleton (linear blend skinning) plus
+//! the predicted displacement D_fitting (+ D_local at full detail), paper eq. (1). With a
+//! canonical-frame model the displacement is rotated into the world by the anchor's frame.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use burn::prelude::*;
+use garmatnet_core::{
+    BodyAnchor, DisplacementFrame, Iso3, JOINT_COUNT, POSE_DIM, Pose, Real, SignedDistance,
+    Skeleton, Vec3,
+};
+
+use crate::error::{Error, Result};
+use crate::garmatnet_net::MATERIAL_DIM;
+use crate::model_file::GarMatNetModel;
+use crate::push_out::{PushOut, PushOutReport, push_out};
+use crate::tensor_util::{matrix, to_f32};
+use garmatnet_core::error::ensure_finite;
+
+/// How much of the model to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, PartialOrd, Ord)]
+pub enum Detail {
+    /// The generally-fitting net only: a smooth garment (about half the cost).
+    Smooth,
+    /// Both nets: the smooth garment plus its wrinkles.
+    #[default]
+    Full,
+}
+
+/// A predicted garment: the template's topology with posed vertex positions (metres).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GarmentMesh {
+    /// Vertex positions (metres, world frame); never NaN.
+    pub vertices: Vec<Vec3>,
+    /// Triangles, counter-clockwise seen from outside (the template's).
+    pub faces: Vec<[u32; 3]>,
+}
+
+/// Distinguishes predictors, so caches built against one model are not reused with another.
+static NEXT_PREDICTOR_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Predicts garments for one garment template with one trained model.
+#[derive(Debug)]
+pub struct Predictor {
+    model: GarMatNetModel,
+    faces: Vec<[u32; 3]>,
+    anchors: Vec<BodyAnchor>,
+    skeleton: Skeleton,
+    device: Device,
+    push_out: PushOut,
+    id: u64,
+}
+
+impl Predictor {
+    /// A predictor for the garment template with `faces`, per-vertex body `anchors` and
+    /// content hash `template_hash`, on `skeleton`, running on `device`.
+    ///
+    /// # Errors
+    /// [`Error::TemplateMismatch`] if the model was trained for another template;
+    /// [`Error::Core`] (invalid mesh / argument) for faces past the vertices or unusable
+    /// anchors; [`Error::InvalidConfig`] for an inconsistent model.
+    pub fn new(
+        model: GarMatNetModel,
+        faces: Vec<[u32; 3]>,
+        anchors: Vec<BodyAnchor>,
+        template_hash: &str,
+        skeleton: Skeleton,
+        device: &Device,
+    ) -> Result<Self> {
+        model.validate()?;
+        model.ensure_template(template_hash, anchors.len())?;
+        let n = anchors.len();
+        if let Some((f, face)) = faces
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.iter().any(|&i| i as usize >= n))
+        {
+            return Err(garmatnet_core::Error::InvalidMesh(format!(
+                "face {f} = {face:?} indexes past the template's {n} vertices"
+            ))
+            .into());
+        }
+        for (i, a) in anchors.iter().enumerate() {
+            let bad_joint = a
+                .weights
+                .iter()
+                .any(|&(j, w)| j >= JOINT_COUNT || !w.is_finite());
+            if a.weights.is_empty() || bad_joint || !a.rest_point.iter().all(|v| v.is_finite()) {
+                return Err(garmatnet_core::Error::InvalidArgument(format!(
+                    "body anchor {i} is unusable: it needs a finite rest point and at least one \
+                     (joint < {JOINT_COUNT}, finite weight) pair"
+                ))
+                .into());
+            }
+        }
+        let model = GarMatNetModel {
+            fitting: model.fitting.valid().to_device(device),
+            local: model.local.valid().to_device(device),
+            ..model
+        };
+        let id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(Self {
+            model,
+            faces,
+            anchors,
+            skeleton,
+            device: device.clone(),
+            push_out: PushOut::default(),
+            id,
+        })
+    }
+
+    // TODO(lead, when garmatnet_core::Material lands): the typed entry point.
+    // /// Predicts the garment for `pose` in `material`.
+    // pub fn predict(&self, pose: &Pose, material: &Material, detail: Detail) -> Result<GarmentMesh> {
+    //     material.validate()?;
+    //     self.predict_normalized(pose, &material.to_normalized(), detail)
+    // }
+
+    /// Sets the body push-out used by [`Predictor::predict_on_body`].
+    #[must_use]
+    pub fn with_push_out(mut self, push_out: PushOut) -> Self {
+        self.push_out = push_out;
+        self
+    }
+
+    /// The model.
+    #[must_use]
+    pub fn model(&self) -> &GarMatNetModel {
+        &self.model
+    }
+
+    /// The device the nets run on.
+    #[must_use]
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// The garment template's faces.
+    #[must_use]
+    pub fn faces(&self) -> &[[u32; 3]] {
+        &self.faces
+    }
+
+    /// The number of garment vertices n.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.anchors.len()
+    }
+
+    pub(crate) fn id(&self) -> u64 {
+        self.id
+    }
+
+    /// Predicts the garment for `pose` and normalised material coordinates ω ∈ [0, 1]⁶.
+    ///
+    /// # Errors
+    /// [`Error::Core`] for a non-finite pose or a material coordinate that is NaN or outside
+    /// [0, 1]; [`Error::NonFiniteOutput`] if the nets produce NaN.
+    pub fn predict_normalized(
+        &self,
+        pose: &Pose,
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<GarmentMesh> {
+        let mut out = self.predict_batch(&[(pose.clone(), *material)], detail)?;
+        Ok(out.remove(0))
+    }
+
+    /// Predicts many garments in one batched forward pass per net.
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_normalized`], for the first bad item.
+    pub fn predict_batch(
+        &self,
+        items: &[(Pose, [Real; MATERIAL_DIM])],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        if items.is_empty() {
+            return Ok(Vec::new());
+        }
+        for (pose, material) in items {
+            validate_inputs(pose, material)?;
+        }
+        let (pose_t, material_t) = self.input_tensors(items.iter().map(|(p, m)| (p, m)));
+        let n3 = 3 * self.vertex_count();
+        let fitting = to_f32(
+            self.model
+                .fitting
+                .forward(pose_t.clone(), material_t.clone()),
+        );
+        let local = match detail {
+            Detail::Full => Some(to_f32(self.model.local.forward(pose_t, material_t))),
+            Detail::Smooth => None,
+        };
+        items
+            .iter()
+            .enumerate()
+            .map(|(b, (pose, _))| {
+                let d_fit = self
+                    .model
+                    .fitting_norm
+                    .denormalize(&fitting[b * n3..(b + 1) * n3]);
+                let d_loc = local
+                    .as_ref()
+                    .map(|l| self.model.local_norm.denormalize(&l[b * n3..(b + 1) * n3]));
+                let vertices = self.assemble(
+                    pose,
+                    &d_fit,
+                    d_loc.as_deref(),
+                    None,
+                    &format!("batch item {b}"),
+                )?;
+                Ok(GarmentMesh {
+                    vertices,
+                    faces: self.faces.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;
+    /// see [`Predictor::with_push_out`]).
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_normalized`].
+    pub fn predict_on_body(
+        &self,
+        pose: &Pose,
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+        body: &dyn SignedDistance,
+    ) -> Result<(GarmentMesh, PushOutReport)> {
+        let mut mesh = self.predict_normalized(pose, material, detail)?;
+        let report = if self.push_out.enabled {
+            push_out(&mut mesh.vertices, body, self.push_out.epsilon)
+        } else {
+            PushOutReport::default()
+        };
+        Ok((mesh, report))
+    }
+
+    /// The garment's body points for `pose`: every anchor posed by linear blend skinning.
+    #[must_use]
+    pub fn body_points(&self, pose: &Pose) -> Vec<Vec3> {
+        let t = self.skeleton.skinning_transforms(pose);
+        self.anchors.iter().map(|a| a.posed_point(&t)).collect()
+    }
+
+    /// `[B, 72]` pose and `[B, 6]` material tensors on the predictor's device.
+    pub(crate) fn input_tensors<'a>(
+        &self,
+        items: impl ExactSizeIterator<Item = (&'a Pose, &'a [Real; MATERIAL_DIM])>,
+    ) -> (Tensor<2>, Tensor<2>) {
+        let b = items.len();
+        let mut poses = Vec::with_capacity(b * POSE_DIM);
+        let mut materials = Vec::with_capacity(b * MATERIAL_DIM);
+        for (p, m) in items {
+            poses.extend(p.to_vec().iter().map(|&v| v as f32));
+            materials.extend(m.iter().map(|&v| v as f32));
+        }
+        (
+            matrix(poses, b, POSE_DIM, &self.device),
+            matrix(materials, b, MATERIAL_DIM, &self.device),
+        )
+    }
+
+    /// Garment vertices from denormalised displacements (metres, the model's frame), for all
+    /// vertices or the subset `vertices` (then `fitting[3i..3i+3]` belongs to `vertices[i]`).
+    pub(crate) fn assemble(
+        &self,
+        pose: &Pose,
+        fitting: &[Real],
+        local: Option<&[Real]>,
+        vertices: Option<&[usize]>,
+        what: &str,
+    ) -> Result<Vec<Vec3>> {
+        let transforms: [Iso3; JOINT_COUNT] = self.skeleton.skinning_transforms(pose);
+        let frame = self.model.displacement_frame();
+        let count = vertices.map_or(self.vertex_count(), <[usize]>::len);
+        let mut out = Vec::with_capacity(count);
+        for i in 0..count {
+            let v = vertices.map_or(i, |s| s[i]);
+            let anchor = &self.anchors[v];
+            let mut d = Vec3::new(fitting[3 * i], fitting[3 * i + 1], fitting[3 * i + 2]);
+            if let Some(l) = local {
+                d += Vec3::new(l[3 * i], l[3 * i + 1], l[3 * i + 2]);
+            }
+            if frame == DisplacementFrame::Canonical {
+                d = anchor.from_frame(&d, frame, &transforms);
+            }
+            let p = anchor.posed_point(&transforms) + d;
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(Error::NonFiniteOutput {
+                    what: what.to_owned(),
+                    vertex: v,
+                });
+            }
+            out.push(p);
+        }
+        Ok(out)
+    }
+}
+
+/// A finite pose and a material inside the unit cube.
+pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> Result<()> {
+    ensure_finite("pose vector", pose.to_vec())?;
+    ensure_finite("normalised material coordinates", material.iter().copied())?;
+    if let Some((i, &v)) = material
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(0.0..=1.0).contains(*v))
+    {
+        return Err(garmatnet_core::Error::OutOfRange {
+            what: format!("normalised material coordinate {i}"),
+            value: v,
+            min: 0.0,
+            max: 1.0,
+            hint: "; normalise the material with Material::to_normalized".into(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{cpu, small_model, test_anchors, test_faces};
+    use approx::assert_relative_eq;
+    use garmatnet_core::{JointLimits, Sphere, SplitMix64};
+
+    pub(crate) fn predictor(seed: u64, frame: DisplacementFrame) -> Predictor {
+        let dev = cpu();
+        let mut model = small_model(seed, None, &dev);
+        for net in [&mut model.fitting, &mut model.local] {
+            net.config.displacement_frame = frame;
+        }
+        Predictor::new(
+            model,
+            test_faces(),
+            test_anchors(),
+            "test-template",
+            Skeleton::smpl_neutral(),
+            &dev,
+        )
+        .unwrap()
+    }
+
+    fn random_material(rng: &mut SplitMix64) -> [Real; 6] {
+        std::array::from_fn(|_| rng.next_f64())
+    }
+
+    #[test]
+    fn predictions_are_finite_and_batch_matches_single() {
+        let p = predictor(1, DisplacementFrame::World);
+        let mut rng = SplitMix64::new(9);
+        let limits = JointLimits::default();
+        let items: Vec<_> = (0..4)
+            .map(|_| (limits.sample(&mut rng, 1.0), random_material(&mut rng)))
+            .collect();
+        let batch = p.predict_batch(&items, Detail::Full).unwrap();
+        for ((pose, m), mesh) in items.iter().zip(&batch) {
+            assert_eq!(mesh.vertices.len(), 50);
+            assert!(
+                mesh.vertices
+                    .iter()
+                    .all(|v| v.iter().all(|c| c.is_finite()))
+            );
+            let single = p.predict_normalized(pose, m, Detail::Full).unwrap();
+            for (a, b) in single.vertices.iter().zip(&mesh.vertices) {
+                assert_relative_eq!(a, b, epsilon = 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn smooth_detail_is_body_plus_fitting_displacement() {
+        let p = predictor(2, DisplacementFrame::World);
+        let pose = Pose::zero();
+        let m = [0.5; 6];
+        let smooth = p.predict_normalized(&pose, &m, Detail::Smooth).unwrap();
+        let full = p.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let (pt, mt) = p.input_tensors([(&pose, &m)].into_iter());
+        let loc = p
+            .model
+            .local_norm
+            .denormalize(&to_f32(p.model.local.forward(pt, mt)));
+        for i in 0..50 {
+            let d = full.vertices[i] - smooth.vertices[i];
+            assert_relative_eq!(
+                d,
+                Vec3::new(loc[3 * i], loc[3 * i + 1], loc[3 * i + 2]),
+                epsilon = 1e-9
+            );
+        }
+    }
+
+    #[test]
+    fn canonical_frame_rotates_displacements_with_the_body() {
+        let world = predictor(3, DisplacementFrame::World);
+        let canon = predictor(3, DisplacementFrame::Canonical);
+        let m = [0.3; 6];
+        // At the rest pose every anchor frame is the identity: both frames agree.
+        let a = world
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap();
+        let b = canon
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap();
+        for (x, y) in a.vertices.iter().zip(&b.vertices) {
+            assert_relative_eq!(x, y, epsilon = 1e-9);
+        }
+        let mut pose = Pose::zero();
+        pose.set_joint(0, Vec3::new(0.0, 1.0, 0.0));
+        let a = world.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let b = canon.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let body = canon.body_points(&pose);
+        let moved = a
+            .vertices
+            .iter()
+            .zip(&b.vertices)
+            .any(|(x, y)| (x - y).norm() > 1e-4);
+        assert!(moved, "a rotated root must rotate canonical displacements");
+        for ((x, y), p) in a.vertices.iter().zip(&b.vertices).zip(&body) {
+            // Same displacement length: only its direction changes.
+            assert_relative_eq!((x - p).norm(), (y - p).norm(), epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let p = predictor(4, DisplacementFrame::World);
+        let mut m = [0.5; 6];
+        m[2] = f64::NAN;
+        assert!(matches!(
+            p.predict_normalized(&Pose::zero(), &m, Detail::Full),
+            Err(Error::Core(garmatnet_core::Error::NonFinite { .. }))
+        ));
+        m[2] = 1.5;
+        let err = p
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::Core(garmatnet_core::Error::OutOfRange { .. })),
+            "{err}"
+        );
+        let mut pose = Pose::zero();
+        pose.set_joint(5, Vec3::new(f64::NAN, 0.0, 0.0));
+        assert!(
+            p.predict_normalized(&pose, &[0.5; 6], Detail::Smooth)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn non_finite_outputs_are_reported() {
+        let dev = cpu();
+        let mut model = small_model(5, None, &dev);
+        // A diverged net (NaN weights straight from training, never from a file).
+        let nan = Tensor::<1>::full([150], f32::NAN, &dev);
+        model.fitting.output.bias = Some(burn::module::Param::from_tensor(nan));
+        let p = Predictor::new(
+            model,
+            test_faces(),
+            test_anchors(),
+            "test-template",
+            Skeleton::smpl_neutral(),
+            &dev,
+        )
+        .unwrap();
+        let err = p
+            .predict_normalized(&Pose::zero(), &[0.5; 6], Detail::Smooth)
+            .unwrap_err();
+        assert!(matches!(err, Error::NonFiniteOutput { .. }), "{err}");
+    }
+
+    #[test]
+    fn construction_refuses_other_templates_and_bad_faces() {
+        let dev = cpu();
+        let model = || small_model(6, None, &dev);
+        let sk = Skeleton::smpl_neutral;
+        assert!(matches!(
+            Predictor::new(model(), test_faces(), test_anchors(), "other", sk(), &dev),
+            Err(Error::TemplateMismatch { .. })
+        ));
+        assert!(
+            Predictor::new(
+                model(),
+                vec![[0, 1, 50]],
+                test_anchors(),
+                "test-template",
+                sk(),
+                &dev
+            )
+            .is_err()
+        );
+        let mut anchors = test_anchors();
+        anchors[3].weights.clear();
+        assert!(
+            Predictor::new(model(), test_faces(), anchors, "test-template", sk(), &dev).is_err()
+        );
+    }
+
+    /// GPU (wgpu) predictions equal CPU predictions; CI runs it on lavapipe.
+    #[cfg(feature = "wgpu")]
+    #[test]
+    fn wgpu_predictions_match_cpu() {
+        let cpu_dev = cpu();
+        let gpu = crate::select_device("gpu").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        small_model(31, Some(4), &cpu_dev).save(&path).unwrap();
+        let make = |dev: &Device| {
+            let model = GarMatNetModel::load(&path, dev).unwrap();
+            Predictor::new(
+                model,
+                test_faces(),
+                test_anchors(),
+                "test-template",
+                Skeleton::smpl_neutral(),
+                dev,
+            )
+            .unwrap()
+        };
+        let (on_cpu, on_gpu) = (make(&cpu_dev), make(&gpu));
+        let mut rng = SplitMix64::new(3);
+        let limits = JointLimits::default();
+        let items: Vec<_> = (0..3)
+            .map(|_| (limits.sample(&mut rng, 1.0), random_material(&mut rng)))
+            .collect();
+        let a = on_cpu.predict_batch(&items, Detail::Full).unwrap();
+        let b = on_gpu.predict_batch(&items, Detail::Full).unwrap();
+        for (x, y) in a.iter().zip(&b) {
+            for (u, v) in x.vertices.iter().zip(&y.vertices) {
+                assert_relative_eq!(u, v, max_relative = 1e-4, epsilon = 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn push_out_on_body_moves_vertices_out_of_a_sphere() {
+        let p = predictor(7, DisplacementFrame::World);
+        let pose = Pose::zero();
+        let m = [0.5; 6];
+        let plain = p.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let centre = plain.vertices[0];
+        let sphere = Sphere {
+            centre,
+            radius: 0.1,
+        };
+        let inside = plain
+            .vertices
+            .iter()
+            .filter(|v| sphere.distance(v) < 0.002)
+            .count();
+        assert!(inside > 0);
+        let (mesh, report) = p.predict_on_body(&pose, &m, Detail::Full, &sphere).unwrap();
+        assert_eq!(report.moved, inside);
+        assert!(
+            mesh.vertices
+                .iter()
+                .all(|v| sphere.distance(v) >= 0.002 - 1e-9)
+        );
+        let off = predictor(7, DisplacementFrame::World).with_push_out(PushOut {
+            enabled: false,
+            ..PushOut::default()
+        });
+        let (mesh, report) = off
+            .predict_on_body(&pose, &m, Detail::Full, &sphere)
+            .unwrap();
+        assert_eq!(report.moved, 0);
+        assert_eq!(mesh, plain);
+    }
+}
