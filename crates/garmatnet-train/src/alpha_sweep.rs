@@ -121,11 +121,12 @@ pub fn markdown(rows: &[AlphaSweepRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::synthetic_dataset;
+    use crate::test_util::{synthetic_dataset, training_lock};
     use crate::trainer::tests::tiny_config;
 
     #[test]
     fn sweep_writes_one_row_per_alpha_and_reuses_finished_models() {
+        let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);

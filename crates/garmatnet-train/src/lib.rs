@@ -41,5 +41,5 @@ pub use report::{
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use trainer::{
-    DIVERGENCE_LOSS, NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train,
+    DIVERGENCE_LOSS, NetSummary, STD_FLOOR, RunOptions, TrainConfig, TrainSummary, split_path, train,
 };

@@ -12,6 +12,14 @@ use garmatnet_sim::{
     TemplateInfo,
 };
 
+/// Burn's random state (weight init, dropout) is global to the process, so tests that train
+/// hold this lock: otherwise parallel tests reseed it under each other and runs that must
+/// repeat bit for bit do not.
+pub(crate) fn training_lock() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 /// The custom target materials of the test datasets.
 pub(crate) const TARGETS: [&str; 2] = ["Target A", "Target B"];
 

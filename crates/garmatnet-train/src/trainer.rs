@@ -4,7 +4,9 @@
 //!
 //! The generally-fitting net is trained first, then the locally-detailed net; each keeps the
 //! weights of its best dev epoch. Every epoch's shuffle and dropout seed derive from a state
-//! saved in the checkpoint, so a resumed run repeats an uninterrupted one on the CPU.
+//! saved in the checkpoint, so a resumed run repeats an uninterrupted one on the CPU. Burn's
+//! random state is global to the process: two trainings running in parallel threads of one
+//! process are not reproducible (separate processes are).
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -425,7 +427,15 @@ fn progress_bar(config: &TrainConfig) -> ProgressBar {
     bar
 }
 
-/// Per-coordinate mean and std (f64) over the rows of `values` (`[S, dim]`, row-major).
+/// The smallest per-coordinate std (metres) the trainer stores. Coordinates that never move
+/// (e.g. D_local at corners the smoother keeps fixed) would otherwise fall under the model
+/// crate's [`garmatnet_model::MIN_STD`] rule, which replaces their std by 1 (metre): every
+/// small net error there would become a metre-sized spike. With a 10 µm floor their
+/// normalised target is 0 and a net error of 1 costs 10 µm.
+pub const STD_FLOOR: f64 = 1e-5;
+
+/// Per-coordinate mean and std (f64, std floored at [`STD_FLOOR`]) over the rows of
+/// `values` (`[S, dim]`, row-major).
 ///
 /// # Errors
 /// From [`OutputNormalizer::from_parts`] (non-finite values); `InvalidArgument` for no rows.
@@ -449,7 +459,10 @@ pub(crate) fn fit_normalizer(values: &[f32], dim: usize) -> Result<OutputNormali
             *s += d * d;
         }
     }
-    let std = var.into_iter().map(|v| (v / rows as f64).sqrt()).collect();
+    let std = var
+        .into_iter()
+        .map(|v| (v / rows as f64).sqrt().max(STD_FLOOR))
+        .collect();
     Ok(OutputNormalizer::from_parts(mean, std)?)
 }
 
@@ -695,7 +708,7 @@ fn diverged(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::test_util::{TARGETS, synthetic_dataset};
+    use crate::test_util::{TARGETS, synthetic_dataset, training_lock};
 
     /// A tiny, fast configuration for the synthetic datasets.
     pub(crate) fn tiny_config(max_epochs: usize) -> TrainConfig {
@@ -719,7 +732,17 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn normaliser_floors_constant_coordinates_instead_of_using_one_metre() {
+        let values = [0.5f32, 0.1, 0.5, 0.3]; // rows [0.5, 0.1], [0.5, 0.3]
+        let norm = fit_normalizer(&values, 2).unwrap();
+        assert_eq!(norm.std()[0], STD_FLOOR);
+        approx::assert_relative_eq!(norm.std()[1], 0.1, epsilon = 1e-7);
+        approx::assert_relative_eq!(norm.mean()[1], 0.2, epsilon = 1e-7);
+    }
+
+    #[test]
     fn training_lowers_the_dev_loss_and_writes_a_loadable_model() {
+        let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
@@ -746,6 +769,7 @@ pub(crate) mod tests {
 
     #[test]
     fn resume_continues_from_the_checkpoint_and_repeats_an_uninterrupted_run() {
+        let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
@@ -782,6 +806,7 @@ pub(crate) mod tests {
 
     #[test]
     fn an_absurd_learning_rate_stops_with_a_divergence_error_and_no_model() {
+        let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
@@ -798,6 +823,7 @@ pub(crate) mod tests {
 
     #[test]
     fn a_checkpoint_of_another_configuration_is_refused() {
+        let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
