@@ -139,12 +139,19 @@ mod tests {
         };
         let rows = sweep_alpha(&data, &out, &[0.3, 0.7], &tiny_config(2), &eval).unwrap();
         assert_eq!(rows.len(), 2);
-        assert!(rows.iter().all(|r| r.whole_mm.is_finite() && r.epochs == [2, 2]));
+        assert!(
+            rows.iter()
+                .all(|r| r.whole_mm.is_finite() && r.epochs == [2, 2])
+        );
         let md = std::fs::read_to_string(out.join("alpha_sweep.md")).unwrap();
         assert!(md.contains("| 0.30 |") && md.contains("| 0.70 |"), "{md}");
         assert!(out.join("alpha_sweep.json").exists());
         let again = sweep_alpha(&data, &out, &[0.3], &tiny_config(2), &eval).unwrap();
-        assert_eq!(again[0].epochs, [0, 0], "an existing model is not retrained");
+        assert_eq!(
+            again[0].epochs,
+            [0, 0],
+            "an existing model is not retrained"
+        );
         assert_eq!(again[0].whole_mm, rows[0].whole_mm);
         assert!(sweep_alpha(&data, &out, &[1.5], &tiny_config(2), &eval).is_err());
     }

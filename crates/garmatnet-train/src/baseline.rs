@@ -181,8 +181,8 @@ pub fn train_baseline(
     let device = select_device(&config.device)?;
     let ad = device.clone().autodiff();
     let n = data.vertex_count();
-    let net = BaselineNetConfig::new(n, config.pose_hidden, config.hidden)
-        .with_dropout(config.dropout);
+    let net =
+        BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
     net.validate()?;
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
     let progress = indicatif::ProgressBar::hidden();
@@ -219,12 +219,28 @@ pub fn train_baseline(
         let dev_set = data.load(&dev, frame)?;
         let mut trained = Vec::new();
         for (part, labels_train, labels_dev, patience) in [
-            ("fitting", &train_set.d_fitting, &dev_set.d_fitting, config.patience_fitting),
-            ("local", &train_set.d_local, &dev_set.d_local, config.patience_local),
+            (
+                "fitting",
+                &train_set.d_fitting,
+                &dev_set.d_fitting,
+                config.patience_fitting,
+            ),
+            (
+                "local",
+                &train_set.d_local,
+                &dev_set.d_local,
+                config.patience_local,
+            ),
         ] {
             let norm = fit_normalizer(labels_train, 3 * n)?;
             let sets = NetSets {
-                train: DeviceSet::new(&train_set.poses, &train_set.materials, labels_train, &norm, &ad),
+                train: DeviceSet::new(
+                    &train_set.poses,
+                    &train_set.materials,
+                    labels_train,
+                    &norm,
+                    &ad,
+                ),
                 dev: DeviceSet::new(
                     &dev_set.poses,
                     &dev_set.materials,
@@ -233,7 +249,8 @@ pub fn train_baseline(
                     &device,
                 ),
             };
-            let seed = config.seed ^ (m as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            let seed = config.seed
+                ^ (m as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
                 ^ u64::from(part == "local");
             ad.seed(seed);
             let settings = LoopSettings {
@@ -297,8 +314,8 @@ impl Baseline {
             path: path.clone(),
             message,
         };
-        let manifest: BaselineManifest =
-            serde_json::from_slice(&bytes).map_err(|e| corrupt(format!("bad baseline.json: {e}")))?;
+        let manifest: BaselineManifest = serde_json::from_slice(&bytes)
+            .map_err(|e| corrupt(format!("bad baseline.json: {e}")))?;
         if manifest.version != BASELINE_VERSION {
             return Err(corrupt(format!("version {}", manifest.version)));
         }

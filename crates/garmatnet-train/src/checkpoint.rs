@@ -125,8 +125,8 @@ impl CheckpointDir {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(Error::io(&path, e)),
         };
-        let state: CheckpointState =
-            serde_json::from_slice(&bytes).map_err(|e| self.error(format!("bad state.json: {e}")))?;
+        let state: CheckpointState = serde_json::from_slice(&bytes)
+            .map_err(|e| self.error(format!("bad state.json: {e}")))?;
         if state.version != CHECKPOINT_VERSION {
             return Err(self.error(format!(
                 "version {} (this build writes {CHECKPOINT_VERSION})",
@@ -214,7 +214,11 @@ impl CheckpointDir {
     ///
     /// # Errors
     /// [`Error::Checkpoint`] if the file is missing or corrupt.
-    pub fn load_optimizer(&self, name: &str, optimizer: ModuleOptimizer) -> Result<ModuleOptimizer> {
+    pub fn load_optimizer(
+        &self,
+        name: &str,
+        optimizer: ModuleOptimizer,
+    ) -> Result<ModuleOptimizer> {
         let bytes = std::fs::read(self.dir.join(name))
             .map_err(|e| self.error(format!("cannot read {name}: {e}")))?;
         optimizer
@@ -233,7 +237,10 @@ impl CheckpointDir {
             .into_record()
             .into_bytes()
             .map_err(|e| self.error(format!("cannot encode {name}: {e}")))?;
-        Ok(garmatnet_core::write_bytes_atomic(self.dir.join(name), &bytes)?)
+        Ok(garmatnet_core::write_bytes_atomic(
+            self.dir.join(name),
+            &bytes,
+        )?)
     }
 
     fn error(&self, message: String) -> Error {

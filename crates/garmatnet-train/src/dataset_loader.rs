@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use garmatnet_core::{
-    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, POSE_DIM, Resolution,
-    SkinnedBody, Skeleton, Vec3, decompose, field_to_frame,
+    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, POSE_DIM, Resolution, Skeleton,
+    SkinnedBody, Vec3, decompose, field_to_frame,
 };
 use garmatnet_model::MATERIAL_DIM;
 use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
@@ -120,8 +120,8 @@ impl TrainingDataset {
                      generating it or allow an incomplete dataset",
                     missing.len(),
                     spec.materials.len() * spec.poses.len(),
-                    spec.materials[garmatnet_sim::manifest::parse_sample_stem(first)
-                        .map_or(0, |(m, _)| m)]
+                    spec.materials
+                        [garmatnet_sim::manifest::parse_sample_stem(first).map_or(0, |(m, _)| m)]
                     .name
                 )));
             }
@@ -135,7 +135,8 @@ impl TrainingDataset {
         let body = CapsuleBody::smpl_neutral();
         let garment = Garment::tshirt(resolution, &body)?;
         let template_hash = format!("{:016x}", garment.template_hash());
-        if template_hash != spec.template.hash || garment.vertex_count() != spec.template.vertex_count
+        if template_hash != spec.template.hash
+            || garment.vertex_count() != spec.template.vertex_count
         {
             return Err(bad(format!(
                 "it was made for template {} ({} vertices) but this build's {} T-shirt is {} \
@@ -227,7 +228,11 @@ impl TrainingDataset {
     /// Material names, in index order.
     #[must_use]
     pub fn material_names(&self) -> Vec<String> {
-        self.spec().materials.iter().map(|m| m.name.clone()).collect()
+        self.spec()
+            .materials
+            .iter()
+            .map(|m| m.name.clone())
+            .collect()
     }
 
     /// Reads one sample's world-frame ground truth.
@@ -314,10 +319,15 @@ impl TrainingDataset {
             let (pose, material) = self.inputs(key);
             out.poses.extend(pose);
             out.materials.extend(material);
-            out.d_fitting
-                .extend(fit.iter().flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]));
-            out.d_local
-                .extend(local.iter().flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]));
+            out.d_fitting.extend(
+                fit.iter()
+                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
+            );
+            out.d_local.extend(
+                local
+                    .iter()
+                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
+            );
         }
         Ok(out)
     }

@@ -127,7 +127,12 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
                 .zip(pred.d_fitting.iter().zip(&pred.d_local))
                 .map(|(b, (f, l))| b + (f + l))
                 .collect();
-            penetration.add(&mut garment, &truth.simulated, &posed, config.push_out_epsilon);
+            penetration.add(
+                &mut garment,
+                &truth.simulated,
+                &posed,
+                config.push_out_epsilon,
+            );
             all_errors.push((key, errors));
         }
     }
@@ -153,8 +158,11 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             });
         }
         for m in &b.materials {
-            let keys: Vec<SampleKey> =
-                comparison.iter().copied().filter(|k| k.material == m.material).collect();
+            let keys: Vec<SampleKey> = comparison
+                .iter()
+                .copied()
+                .filter(|k| k.material == m.material)
+                .collect();
             for chunk in keys.chunks(64) {
                 let preds = predict_baseline(m, &data, chunk, &device)?;
                 for (&key, pred) in chunk.iter().zip(preds) {
@@ -165,7 +173,9 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         }
         baseline_errors.sort_by_key(|(k, _)| *k);
     }
-    let baseline_stats = baseline.as_ref().map(|_| error_stats(baseline_errors.iter().map(|(_, e)| e)));
+    let baseline_stats = baseline
+        .as_ref()
+        .map(|_| error_stats(baseline_errors.iter().map(|(_, e)| e)));
 
     let per_sample: Vec<SampleErrors> = all_errors
         .iter()
@@ -202,8 +212,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             &split,
             &data,
             &all_errors,
-            &baseline_errors,
-            baseline.as_ref(),
+            (&baseline_errors, baseline.as_ref()),
             &model,
             &device,
         )?);
@@ -251,7 +260,11 @@ fn load_model(path: &Path, data: &TrainingDataset, device: &Device) -> Result<Ga
 }
 
 /// `[B, 72]` and `[B, 6]` input tensors of `keys`.
-fn input_tensors(data: &TrainingDataset, keys: &[SampleKey], device: &Device) -> (Tensor<2>, Tensor<2>) {
+fn input_tensors(
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> (Tensor<2>, Tensor<2>) {
     let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
     let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
     for &k in keys {
@@ -285,7 +298,9 @@ fn assemble(
     keys.iter()
         .enumerate()
         .map(|(b, &key)| {
-            let transforms = data.skeleton().skinning_transforms(&data.spec().poses[key.pose]);
+            let transforms = data
+                .skeleton()
+                .skinning_transforms(&data.spec().poses[key.pose]);
             let anchors = &data.garment().anchors;
             let field = |raw: &[f32], norm: &OutputNormalizer| -> Vec<Vec3> {
                 let d = norm.denormalize(&raw[b * n3..(b + 1) * n3]);
@@ -406,7 +421,11 @@ impl PenetrationAccumulator {
         let depths = |g: &[Vec3]| -> (usize, f64) {
             g.iter().fold((0, 0.0f64), |(count, deepest), v| {
                 let d = body.distance(v);
-                if d < 0.0 { (count + 1, deepest.max(-d)) } else { (count, deepest) }
+                if d < 0.0 {
+                    (count + 1, deepest.max(-d))
+                } else {
+                    (count, deepest)
+                }
             })
         };
         let n = garment.len().max(1) as f64;
@@ -459,14 +478,27 @@ fn compare_frames(
     }
     let mut errors = Vec::new();
     for keys in split.test.chunks(64) {
-        for (&key, pred) in keys.iter().zip(predict_garmatnet(&other, data, keys, device)?) {
+        for (&key, pred) in keys
+            .iter()
+            .zip(predict_garmatnet(&other, data, keys, device)?)
+        {
             errors.push(vertex_errors(&data.truth(key)?, &pred));
         }
     }
     let other_whole = error_stats(errors.iter()).whole_mm;
-    let primary = (frame_name(primary.displacement_frame()).to_owned(), primary_whole_mm);
-    let other = (frame_name(other.displacement_frame()).to_owned(), other_whole);
-    let winner = if primary.1 <= other.1 { primary.0.clone() } else { other.0.clone() };
+    let primary = (
+        frame_name(primary.displacement_frame()).to_owned(),
+        primary_whole_mm,
+    );
+    let other = (
+        frame_name(other.displacement_frame()).to_owned(),
+        other_whole,
+    );
+    let winner = if primary.1 <= other.1 {
+        primary.0.clone()
+    } else {
+        other.0.clone()
+    };
     Ok(FrameComparison {
         primary,
         other,
@@ -476,7 +508,13 @@ fn compare_frames(
 
 fn slug(name: &str) -> String {
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 
@@ -495,7 +533,10 @@ fn per_pose_plots(
         }
         let mut series = vec![Series {
             label: "GarMatNet".into(),
-            points: rows.iter().map(|r| (r.frame as f64, r.garmatnet.whole_mm)).collect(),
+            points: rows
+                .iter()
+                .map(|r| (r.frame as f64, r.garmatnet.whole_mm))
+                .collect(),
         }];
         let baseline: Vec<(f64, f64)> = rows
             .iter()
@@ -529,15 +570,15 @@ fn heat_maps(
     split: &Split,
     data: &TrainingDataset,
     garmatnet: &[(SampleKey, VertexErrors)],
-    baseline: &[(SampleKey, VertexErrors)],
-    baseline_nets: Option<&Baseline>,
+    (baseline, baseline_nets): (&[(SampleKey, VertexErrors)], Option<&Baseline>),
     model: &GarMatNetModel,
     device: &Device,
 ) -> Result<Vec<String>> {
     let Some(&material) = split.test_materials.first() else {
         return Ok(Vec::new());
     };
-    let baseline_net = baseline_nets.and_then(|b| b.materials.iter().find(|m| m.material == material));
+    let baseline_net =
+        baseline_nets.and_then(|b| b.materials.iter().find(|m| m.material == material));
     let held_out = |k: &SampleKey| split.held_out_poses.binary_search(&k.pose).is_ok();
     let mut candidates: Vec<&(SampleKey, VertexErrors)> = garmatnet
         .iter()
@@ -676,7 +717,10 @@ fn dir_size(dir: &Path) -> u64 {
     std::fs::read_dir(dir).map_or(0, |entries| {
         entries
             .flatten()
-            .map(|e| e.metadata().map_or(0, |m| if m.is_file() { m.len() } else { 0 }))
+            .map(|e| {
+                e.metadata()
+                    .map_or(0, |m| if m.is_file() { m.len() } else { 0 })
+            })
             .sum()
     })
 }
@@ -711,7 +755,10 @@ mod tests {
         let manifest = train_baseline(&data, &baseline_dir, &baseline_config).unwrap();
         assert_eq!(manifest.materials.len(), 2);
         // 18 own poses -> 16 train, 2 dev; GarMatNet trains on 65, so 65 / 16 -> 4 passes.
-        assert!(manifest.materials.iter().all(|m| m.replicate == 4), "{manifest:?}");
+        assert!(
+            manifest.materials.iter().all(|m| m.replicate == 4),
+            "{manifest:?}"
+        );
 
         let out = dir.path().join("eval");
         let config = EvalConfig {
@@ -729,7 +776,13 @@ mod tests {
         let report = evaluate(&inputs, &config).unwrap();
         let b = report.baseline.unwrap();
         for e in [report.garmatnet, b, report.garmatnet_all_test] {
-            for v in [e.fitting_mm, e.local_mm, e.whole_mm, e.whole_p95_mm, e.whole_max_mm] {
+            for v in [
+                e.fitting_mm,
+                e.local_mm,
+                e.whole_mm,
+                e.whole_p95_mm,
+                e.whole_max_mm,
+            ] {
                 assert!(v.is_finite() && v > 0.0, "{e:?}");
             }
             // The triangle inequality holds per vertex, hence for the means.
@@ -754,11 +807,21 @@ mod tests {
         assert!(report.timing.batch1_ms_per_frame > 0.0);
         assert!(report.sizes.garmatnet_mb > 0.0 && report.sizes.baseline_mb.unwrap() > 0.0);
         let c = report.frame_comparison.unwrap();
-        assert_eq!((c.primary.0.as_str(), c.other.0.as_str()), ("world", "canonical"));
+        assert_eq!(
+            (c.primary.0.as_str(), c.other.0.as_str()),
+            ("world", "canonical")
+        );
         for f in ["report.json", "report.md"] {
             assert!(out.join(f).exists(), "{f} missing");
         }
-        assert!(report.files.iter().filter(|f| f.starts_with("per_pose_")).count() == 2);
+        assert!(
+            report
+                .files
+                .iter()
+                .filter(|f| f.starts_with("per_pose_"))
+                .count()
+                == 2
+        );
         assert!(report.files.iter().any(|f| f.starts_with("heatmap_")));
         for f in &report.files {
             assert!(out.join(f).exists(), "{f} missing");

@@ -41,5 +41,6 @@ pub use report::{
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use trainer::{
-    DIVERGENCE_LOSS, NetSummary, STD_FLOOR, RunOptions, TrainConfig, TrainSummary, split_path, train,
+    DIVERGENCE_LOSS, NetSummary, RunOptions, STD_FLOOR, TrainConfig, TrainSummary, split_path,
+    train,
 };

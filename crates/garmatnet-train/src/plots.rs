@@ -86,11 +86,18 @@ pub fn line_chart(
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(|e| plot_error(e.to_string()))?;
-        let colours = [RGBColor(40, 90, 200), RGBColor(210, 50, 40), RGBColor(40, 160, 80)];
+        let colours = [
+            RGBColor(40, 90, 200),
+            RGBColor(210, 50, 40),
+            RGBColor(40, 160, 80),
+        ];
         for (i, s) in series.iter().enumerate() {
             let colour = colours[i % colours.len()];
             chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), colour.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    s.points.iter().copied(),
+                    colour.stroke_width(2),
+                ))
                 .map_err(|e| plot_error(e.to_string()))?
                 .label(s.label.clone())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
@@ -130,7 +137,15 @@ mod tests {
                 points: vec![(0.0, 5.0), (10.0, 6.0), (20.0, 4.5)],
             },
         ];
-        line_chart(&path, "Cashmere", "frame", "error (mm)", &series, (480, 320)).unwrap();
+        line_chart(
+            &path,
+            "Cashmere",
+            "frame",
+            "error (mm)",
+            &series,
+            (480, 320),
+        )
+        .unwrap();
         let img = image::open(&path).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (480, 320));
         let non_white = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();

@@ -141,7 +141,10 @@ impl Report {
         let json = serde_json::to_vec_pretty(self)
             .map_err(|e| Error::InvalidConfig(format!("cannot encode the report: {e}")))?;
         garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
-        garmatnet_core::write_bytes_atomic(out_dir.join("report.md"), self.to_markdown().as_bytes())?;
+        garmatnet_core::write_bytes_atomic(
+            out_dir.join("report.md"),
+            self.to_markdown().as_bytes(),
+        )?;
         Ok(())
     }
 
@@ -193,7 +196,11 @@ impl Report {
             );
         }
         let p = &self.penetration;
-        let _ = writeln!(s, "\n## Body penetration (push-out ε = {:.1} mm)\n", p.epsilon_mm);
+        let _ = writeln!(
+            s,
+            "\n## Body penetration (push-out ε = {:.1} mm)\n",
+            p.epsilon_mm
+        );
         let _ = writeln!(s, "| | Before | After |\n|---|---:|---:|");
         let _ = writeln!(
             s,
@@ -221,7 +228,11 @@ impl Report {
             "| ms/frame, batch {} | {:.3} |",
             t.batch_size, t.batched_ms_per_frame
         );
-        let _ = writeln!(s, "| GarMatNet model (MB) | {:.2} |", self.sizes.garmatnet_mb);
+        let _ = writeln!(
+            s,
+            "| GarMatNet model (MB) | {:.2} |",
+            self.sizes.garmatnet_mb
+        );
         if let Some(b) = self.sizes.baseline_mb {
             let _ = writeln!(s, "| Baseline, all materials (MB) | {b:.2} |");
         }

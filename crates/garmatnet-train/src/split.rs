@@ -32,7 +32,10 @@ pub struct SplitConfig {
 impl Default for SplitConfig {
     fn default() -> Self {
         Self {
-            test_materials: PAPER_TEST_MATERIALS.iter().map(|s| (*s).to_owned()).collect(),
+            test_materials: PAPER_TEST_MATERIALS
+                .iter()
+                .map(|s| (*s).to_owned())
+                .collect(),
             held_out_frame_every: 10,
             dev_fraction: 0.1,
             seed: 42,
@@ -281,7 +284,10 @@ mod tests {
             assert_eq!(split.test.contains(k), expect_test, "{k:?}");
         }
         split.check_no_leak(Path::new("s.json")).unwrap();
-        assert_eq!(split.train.len() + split.dev.len() + split.test.len(), keys.len());
+        assert_eq!(
+            split.train.len() + split.dev.len() + split.test.len(),
+            keys.len()
+        );
         let rest = (5 * 36) as f64;
         assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
         assert_eq!(split.comparison_test().len(), 2 * 4);
@@ -319,7 +325,10 @@ mod tests {
         let path = dir.path().join("split.json");
         split.write(&path).unwrap();
         assert_eq!(Split::read(&path, "h").unwrap(), split);
-        assert!(matches!(Split::read(&path, "other"), Err(Error::Split { .. })));
+        assert!(matches!(
+            Split::read(&path, "other"),
+            Err(Error::Split { .. })
+        ));
         split.train.push(split.test[0]);
         split.write(&path).unwrap();
         assert!(matches!(Split::read(&path, "h"), Err(Error::Split { .. })));

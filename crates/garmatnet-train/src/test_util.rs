@@ -17,7 +17,8 @@ use garmatnet_sim::{
 /// repeat bit for bit do not.
 pub(crate) fn training_lock() -> std::sync::MutexGuard<'static, ()> {
     static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    LOCK.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// The custom target materials of the test datasets.
@@ -88,7 +89,9 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
                 .collect();
             let smoothed = smoother.smooth(&simulated).unwrap();
             let f32s = |v: &[garmatnet_core::Vec3]| -> Vec<[f32; 3]> {
-                v.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect()
+                v.iter()
+                    .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                    .collect()
             };
             let arrays = SampleArrays {
                 simulated: f32s(&simulated),

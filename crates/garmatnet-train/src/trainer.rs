@@ -225,7 +225,12 @@ pub fn train(
 ) -> Result<TrainSummary> {
     config.validate()?;
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
-    let split = Split::new(data.spec(), &data.keys(), data.dataset_hash(), &config.split)?;
+    let split = Split::new(
+        data.spec(),
+        &data.keys(),
+        data.dataset_hash(),
+        &config.split,
+    )?;
     let split_file = split_path(model_path);
     split.check_no_leak(&split_file)?;
     let device = select_device(&config.device)?;
@@ -285,17 +290,19 @@ pub fn train(
     };
 
     // The fitting net: finished in an earlier run, resumed, or trained from scratch.
-    let fitting_state = |state: Option<CheckpointState>| CheckpointState {
-        version: CHECKPOINT_VERSION,
-        fingerprint: fingerprint.clone(),
-        phase: Phase::Fitting,
-        fitting_done: None,
-        progress: initial_progress(0),
-        current_file: String::new(),
-        best_file: String::new(),
-        optimizer_file: String::new(),
-    }
-    .merge(state);
+    let fitting_state = |state: Option<CheckpointState>| {
+        CheckpointState {
+            version: CHECKPOINT_VERSION,
+            fingerprint: fingerprint.clone(),
+            phase: Phase::Fitting,
+            fitting_done: None,
+            progress: initial_progress(0),
+            current_file: String::new(),
+            best_file: String::new(),
+            optimizer_file: String::new(),
+        }
+        .merge(state)
+    };
     ad.seed(config.seed);
     let fresh_fitting = net_config.init(&ad);
     let (fitting_net, fitting_progress) = match &saved {
@@ -419,9 +426,9 @@ fn progress_bar(config: &TrainConfig) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(config.max_epochs as u64);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{prefix:>8} [{bar:30}] {pos}/{len} epochs  {msg}  ETA {eta}",
-    ) {
+    if let Ok(style) =
+        ProgressStyle::with_template("{prefix:>8} [{bar:30}] {pos}/{len} epochs  {msg}  ETA {eta}")
+    {
         bar.set_style(style.progress_chars("=> "));
     }
     bar
@@ -449,7 +456,9 @@ pub(crate) fn fit_normalizer(values: &[f32], dim: usize) -> Result<OutputNormali
     }
     let mut mean = vec![0.0f64; dim];
     for row in values.chunks_exact(dim) {
-        mean.iter_mut().zip(row).for_each(|(m, &v)| *m += f64::from(v));
+        mean.iter_mut()
+            .zip(row)
+            .for_each(|(m, &v)| *m += f64::from(v));
     }
     mean.iter_mut().for_each(|m| *m /= rows as f64);
     let mut var = vec![0.0f64; dim];
@@ -584,7 +593,11 @@ pub(crate) fn mean_loss<M: Trainable>(net: &M, set: &DeviceSet) -> f64 {
             set.poses.clone().narrow(0, start, len),
             set.materials.clone().narrow(0, start, len),
         );
-        let loss = MseLoss::new().forward(pred, set.targets.clone().narrow(0, start, len), Reduction::Mean);
+        let loss = MseLoss::new().forward(
+            pred,
+            set.targets.clone().narrow(0, start, len),
+            Reduction::Mean,
+        );
         sum += f64::from(loss.into_scalar::<f32>()) * len as f64;
         start += len;
     }
@@ -643,7 +656,12 @@ pub(crate) fn fit_net<M: Trainable>(
             let loss = MseLoss::new().forward(pred, target, Reduction::Mean);
             let value = f64::from(loss.clone().into_scalar::<f32>());
             if !value.is_finite() || value > DIVERGENCE_LOSS {
-                return Err(diverged(settings, state.epoch + 1, value, checkpoint.as_ref()));
+                return Err(diverged(
+                    settings,
+                    state.epoch + 1,
+                    value,
+                    checkpoint.as_ref(),
+                ));
             }
             loss_sum += value * batch.len() as f64;
             let grads = GradientsParams::from_grads(loss.backward(), &net);
@@ -653,7 +671,12 @@ pub(crate) fn fit_net<M: Trainable>(
         let dev_loss = mean_loss(&net.valid(), &sets.dev);
         state.epoch += 1;
         if !dev_loss.is_finite() {
-            return Err(diverged(settings, state.epoch, dev_loss, checkpoint.as_ref()));
+            return Err(diverged(
+                settings,
+                state.epoch,
+                dev_loss,
+                checkpoint.as_ref(),
+            ));
         }
         state.last_train = train_loss;
         state.rng_state = rng.next_u64();
@@ -758,10 +781,16 @@ pub(crate) mod tests {
             );
         }
         let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
-        assert_eq!(model.vertex_count(), TrainingDataset::open(&data, false).unwrap().vertex_count());
+        assert_eq!(
+            model.vertex_count(),
+            TrainingDataset::open(&data, false).unwrap().vertex_count()
+        );
         assert!(model.meta.provenance.losses["fitting_dev_mse"].is_finite());
         assert!(s.split_path.exists());
-        assert!(!s.checkpoint_dir.exists(), "a finished run removes its checkpoint");
+        assert!(
+            !s.checkpoint_dir.exists(),
+            "a finished run removes its checkpoint"
+        );
         // 4 non-target materials x 18 non-held-out poses, split 90/10.
         assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
         assert_eq!(s.samples[2], 6 * 20 - 4 * 18);
@@ -788,7 +817,10 @@ pub(crate) mod tests {
         };
         let first = train(&data, &path, &config, &stop(3)).unwrap();
         assert!(!first.finished && !path.exists(), "no model before the end");
-        let state = CheckpointDir::for_model(&path).read_state().unwrap().unwrap();
+        let state = CheckpointDir::for_model(&path)
+            .read_state()
+            .unwrap()
+            .unwrap();
         assert_eq!((state.phase, state.progress.epoch), (Phase::Fitting, 3));
         let second = train(&data, &path, &config, &stop(3)).unwrap();
         assert_eq!(second.resumed_from, Some((Phase::Fitting, 3)));
@@ -798,7 +830,10 @@ pub(crate) mod tests {
         assert!(last.finished && path.exists());
         let (a, b) = (full.fitting.unwrap(), last.fitting.unwrap());
         assert_eq!(a.epochs, b.epochs);
-        assert_eq!(a.best_dev_mse, b.best_dev_mse, "resumed fitting net differs");
+        assert_eq!(
+            a.best_dev_mse, b.best_dev_mse,
+            "resumed fitting net differs"
+        );
         let (a, b) = (full.local.unwrap(), last.local.unwrap());
         assert_eq!(a.best_dev_mse, b.best_dev_mse, "resumed local net differs");
         assert_eq!(a.last_train_mse, b.last_train_mse);
@@ -854,9 +889,21 @@ pub(crate) mod tests {
         let mut rng = SplitMix64::new(3);
         let mut fill = |len: usize| -> Vec<f32> { (0..len).map(|_| rng.normal() as f32).collect() };
         let norm = OutputNormalizer::identity(3 * n);
-        let set = DeviceSet::new(&fill(rows * POSE_DIM), &fill(rows * MATERIAL_DIM), &fill(rows * 3 * n), &norm, &ad);
+        let set = DeviceSet::new(
+            &fill(rows * POSE_DIM),
+            &fill(rows * MATERIAL_DIM),
+            &fill(rows * 3 * n),
+            &norm,
+            &ad,
+        );
         let sets = NetSets {
-            dev: DeviceSet::new(&fill(32 * POSE_DIM), &fill(32 * MATERIAL_DIM), &fill(32 * 3 * n), &norm, &ad.clone().inner()),
+            dev: DeviceSet::new(
+                &fill(32 * POSE_DIM),
+                &fill(32 * MATERIAL_DIM),
+                &fill(32 * 3 * n),
+                &norm,
+                &ad.clone().inner(),
+            ),
             train: set,
         };
         let settings = LoopSettings {
@@ -869,7 +916,15 @@ pub(crate) mod tests {
             seed: 1,
         };
         let t = Instant::now();
-        let Outcome::Done(_, p) = fit_net(net, &sets, &settings, None, &mut None, &ProgressBar::hidden()).unwrap() else {
+        let Outcome::Done(_, p) = fit_net(
+            net,
+            &sets,
+            &settings,
+            None,
+            &mut None,
+            &ProgressBar::hidden(),
+        )
+        .unwrap() else {
             unreachable!()
         };
         let per_step = p.seconds / (3.0 * (rows / 32) as f64);
