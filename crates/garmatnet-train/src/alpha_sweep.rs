@@ -97,6 +97,9 @@ pub fn sweep_alpha(
         .map_err(|e| Error::InvalidConfig(format!("cannot encode the sweep: {e}")))?;
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.json"), &json)?;
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.md"), markdown(&rows).as_bytes())?;
+    for f in ["alpha_sweep.json", "alpha_sweep.md"] {
+        crate::report::make_readable(&out_dir.join(f));
+    }
     Ok(rows)
 }
 

@@ -298,6 +298,7 @@ pub fn train_baseline(
     let json = serde_json::to_vec_pretty(&manifest)
         .map_err(|e| Error::InvalidConfig(format!("cannot encode baseline.json: {e}")))?;
     garmatnet_core::write_bytes_atomic(out_dir.join("baseline.json"), &json)?;
+    crate::report::make_readable(&out_dir.join("baseline.json"));
     Ok(manifest)
 }
 
@@ -357,5 +358,7 @@ fn write_net(path: &Path, net: &BaselineNet) -> Result<()> {
             path: path.to_owned(),
             message: format!("cannot encode the baseline net: {e}"),
         })?;
-    Ok(garmatnet_core::write_bytes_atomic(path, &bytes)?)
+    garmatnet_core::write_bytes_atomic(path, &bytes)?;
+    crate::report::make_readable(path);
+    Ok(())
 }

@@ -372,3 +372,54 @@ pub(crate) fn sibling(model: &Path, suffix: &str) -> PathBuf {
         .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
     model.with_file_name(format!("{stem}.{suffix}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::synthetic_dataset;
+
+    #[test]
+    fn labels_decompose_the_garment_and_bad_datasets_name_the_sample() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 3, 4);
+        let set = TrainingDataset::open(&data, false).unwrap();
+        let key = SampleKey {
+            material: 1,
+            pose: 2,
+        };
+        let truth = set.truth(key).unwrap();
+        let loaded = set.load(&[key], DisplacementFrame::World).unwrap();
+        for i in 0..set.vertex_count() {
+            for c in 0..3 {
+                let rebuilt = truth.body_points[i][c]
+                    + f64::from(loaded.d_fitting[3 * i + c])
+                    + f64::from(loaded.d_local[3 * i + c]);
+                approx::assert_abs_diff_eq!(rebuilt, truth.simulated[i][c], epsilon = 1e-5);
+            }
+        }
+        assert_eq!(loaded.poses.len(), POSE_DIM);
+        assert_eq!(loaded.materials.len(), MATERIAL_DIM);
+
+        // A corrupt array names its sample when loaded.
+        let stem = garmatnet_sim::sample_stem(1, 2);
+        let npy = data.join("samples").join(&stem).join("smoothed.npy");
+        std::fs::write(&npy, b"not an npy").unwrap();
+        let err = set.load(&[key], DisplacementFrame::World).unwrap_err();
+        assert!(err.to_string().contains(&stem), "{err}");
+
+        // A missing sample makes the dataset incomplete, named in the error.
+        std::fs::remove_dir_all(data.join("samples").join(&stem)).unwrap();
+        let err = TrainingDataset::open(&data, false).unwrap_err();
+        assert!(err.to_string().contains(&stem), "{err}");
+        assert!(TrainingDataset::open(&data, true).is_ok());
+
+        // Another template hash is refused.
+        let manifest = data.join("manifest.json");
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        let hash = set.template_hash().to_owned();
+        std::fs::write(&manifest, text.replace(&hash, "0123456789abcdef")).unwrap();
+        let err = TrainingDataset::open(&data, true).unwrap_err();
+        assert!(err.to_string().contains("regenerate the dataset"), "{err}");
+    }
+}

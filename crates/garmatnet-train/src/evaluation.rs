@@ -814,6 +814,15 @@ mod tests {
         for f in ["report.json", "report.md"] {
             assert!(out.join(f).exists(), "{f} missing");
         }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(out.join("report.md"))
+                .unwrap()
+                .permissions()
+                .mode();
+            assert_eq!(mode & 0o777, 0o644, "reports get ordinary permissions");
+        }
         assert!(
             report
                 .files

@@ -145,6 +145,14 @@ impl Report {
             out_dir.join("report.md"),
             self.to_markdown().as_bytes(),
         )?;
+        for f in self
+            .files
+            .iter()
+            .map(String::as_str)
+            .chain(["report.json", "report.md"])
+        {
+            make_readable(&out_dir.join(f));
+        }
         Ok(())
     }
 
@@ -255,6 +263,18 @@ impl Report {
         }
         s
     }
+}
+
+/// Gives a finished output file ordinary permissions (0644 on Unix): the atomic writers
+/// create their temporary files 0600, which would hide reports and splits from other users.
+pub(crate) fn make_readable(path: &Path) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o644));
+    }
+    #[cfg(not(unix))]
+    let _ = path;
 }
 
 /// Mean, max and 95th percentile of per-vertex errors (metres in, millimetres out).

@@ -175,7 +175,9 @@ impl Split {
     pub fn write(&self, path: &Path) -> Result<()> {
         let bytes = serde_json::to_vec_pretty(self)
             .map_err(|e| Error::InvalidConfig(format!("cannot serialise the split: {e}")))?;
-        Ok(garmatnet_core::write_bytes_atomic(path, &bytes)?)
+        garmatnet_core::write_bytes_atomic(path, &bytes)?;
+        crate::report::make_readable(path);
+        Ok(())
     }
 
     /// Reads a split and checks it against the dataset it will be used with.

@@ -772,6 +772,11 @@ pub(crate) mod tests {
         let model_path = dir.path().join("out").join("model.safetensors");
         let s = train(&data, &model_path, &tiny_config(25), &RunOptions::default()).unwrap();
         assert!(s.finished);
+        eprintln!(
+            "tiny: {:.1} ms per epoch (fitting), {} training samples",
+            1e3 * s.fitting.as_ref().unwrap().seconds_per_epoch,
+            s.samples[0]
+        );
         for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
             assert!(
                 net.best_dev_mse < 0.5 * net.initial_dev_mse,
