@@ -66,7 +66,7 @@ pub fn sweep_alpha(
                 &run,
                 &RunOptions {
                     resume: true,
-                    stop_after_epochs: None,
+                    ..RunOptions::default()
                 },
             )?;
             epochs = [

@@ -143,8 +143,10 @@ impl TrainConfig {
 }
 
 /// How to run a training: resume, or stop early leaving a checkpoint.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct RunOptions {
+    /// The command line, recorded in the model's provenance (the CLI passes its arguments).
+    pub command: String,
     /// Continue from the checkpoint next to the model, if there is one.
     pub resume: bool,
     /// Stop after this many epochs (both nets together) in this run, leaving a checkpoint to
@@ -361,7 +363,7 @@ pub fn train(
 
     let provenance = TrainingProvenance {
         dataset_hash: data.dataset_hash().to_owned(),
-        command: String::new(),
+        command: options.command.clone(),
         seed: config.seed,
         epochs: fitting_progress.epoch.max(local_progress.epoch),
         losses: [
@@ -770,7 +772,11 @@ pub(crate) mod tests {
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
         let model_path = dir.path().join("out").join("model.safetensors");
-        let s = train(&data, &model_path, &tiny_config(25), &RunOptions::default()).unwrap();
+        let options = RunOptions {
+            command: "garmatnet train data --out model.safetensors".into(),
+            ..RunOptions::default()
+        };
+        let s = train(&data, &model_path, &tiny_config(25), &options).unwrap();
         assert!(s.finished);
         eprintln!(
             "tiny: {:.1} ms per epoch (fitting), {} training samples",
@@ -791,6 +797,7 @@ pub(crate) mod tests {
             TrainingDataset::open(&data, false).unwrap().vertex_count()
         );
         assert!(model.meta.provenance.losses["fitting_dev_mse"].is_finite());
+        assert_eq!(model.meta.provenance.command, options.command);
         assert!(s.split_path.exists());
         assert!(
             !s.checkpoint_dir.exists(),
@@ -819,6 +826,7 @@ pub(crate) mod tests {
         let stop = |n| RunOptions {
             resume: true,
             stop_after_epochs: Some(n),
+            ..RunOptions::default()
         };
         let first = train(&data, &path, &config, &stop(3)).unwrap();
         assert!(!first.finished && !path.exists(), "no model before the end");
@@ -871,6 +879,7 @@ pub(crate) mod tests {
         let stop = RunOptions {
             resume: true,
             stop_after_epochs: Some(1),
+            ..RunOptions::default()
         };
         train(&data, &path, &tiny_config(5), &stop).unwrap();
         let other = TrainConfig {
