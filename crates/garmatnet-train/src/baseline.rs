@@ -65,6 +65,8 @@ pub struct BaselineConfig {
     pub allow_incomplete_dataset: bool,
     /// Compute device.
     pub device: String,
+    /// No progress bar.
+    pub quiet: bool,
 }
 
 impl Default for BaselineConfig {
@@ -91,6 +93,7 @@ impl BaselineConfig {
             split: c.split.clone(),
             allow_incomplete_dataset: c.allow_incomplete_dataset,
             device: c.device.clone(),
+            quiet: c.quiet,
         }
     }
 }
@@ -185,7 +188,7 @@ pub fn train_baseline(
         BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
     net.validate()?;
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let progress = indicatif::ProgressBar::hidden();
+    let progress = crate::trainer::progress_bar(config.max_epochs, config.quiet);
     let mut entries = Vec::new();
     for &m in &split.test_materials {
         let name = data.spec().materials[m].name.clone();
@@ -286,6 +289,7 @@ pub fn train_baseline(
             local,
         });
     }
+    progress.finish_and_clear();
     let manifest = BaselineManifest {
         version: BASELINE_VERSION,
         dataset_hash: data.dataset_hash().to_owned(),

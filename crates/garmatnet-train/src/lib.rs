@@ -9,6 +9,19 @@
 //! - [`evaluate`]: Table 2's errors, per-pose plots (Figs. 7–8), heat maps (Figs. 11–12),
 //!   push-out, timing and sizes, written as a [`Report`].
 //! - [`sweep_alpha`]: Table 3.
+//!
+//! Every run is described by a serde configuration, so a CLI or a JSON file can set it:
+//!
+//! ```
+//! use garmatnet_train::TrainConfig;
+//!
+//! let config: TrainConfig = serde_json::from_str(r#"{ "alpha": 0.3, "hidden": 256 }"#)?;
+//! assert_eq!(config.alpha, 0.3);
+//! assert_eq!(config.patience_local, 200, "unset fields keep the paper's defaults");
+//! assert_eq!(config.split.test_materials.len(), 4);
+//! config.validate()?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod alpha_sweep;
 pub mod baseline;

@@ -268,7 +268,7 @@ pub fn train(
     }
     split.write(&split_file)?;
 
-    let progress = progress_bar(config);
+    let progress = progress_bar(config.max_epochs, config.quiet);
     let ad = device.clone().autodiff();
     let mut budget = options.stop_after_epochs;
     let mut summary = TrainSummary {
@@ -423,11 +423,13 @@ fn initial_progress(seed: u64) -> NetProgress {
     }
 }
 
-fn progress_bar(config: &TrainConfig) -> ProgressBar {
-    if config.quiet || !std::io::stderr().is_terminal() {
+/// An epoch progress bar on stderr (epoch, losses, best, ETA); hidden when `quiet` or when
+/// stderr is not a terminal.
+pub(crate) fn progress_bar(max_epochs: usize, quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
-    let bar = ProgressBar::new(config.max_epochs as u64);
+    let bar = ProgressBar::new(max_epochs as u64);
     if let Ok(style) =
         ProgressStyle::with_template("{prefix:>8} [{bar:30}] {pos}/{len} epochs  {msg}  ETA {eta}")
     {
