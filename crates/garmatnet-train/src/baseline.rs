@@ -27,9 +27,8 @@ use serde::{Deserialize, Serialize};
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 use crate::split::{Split, SplitConfig};
-use crate::trainer::{
-    DeviceSet, LoopSettings, NetSets, NetSummary, Outcome, TrainConfig, fit_net, fit_normalizer,
-};
+use crate::trainer::{NetSummary, TrainConfig};
+use crate::training_loop::{DeviceSet, LoopSettings, NetSets, Outcome, fit_net, fit_normalizer};
 
 /// The baseline format version.
 pub const BASELINE_VERSION: u32 = 1;
@@ -188,7 +187,7 @@ pub fn train_baseline(
         BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
     net.validate()?;
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let progress = crate::trainer::progress_bar(config.max_epochs, config.quiet);
+    let progress = crate::training_loop::progress_bar(config.max_epochs, config.quiet);
     let mut entries = Vec::new();
     for &m in &split.test_materials {
         let name = data.spec().materials[m].name.clone();

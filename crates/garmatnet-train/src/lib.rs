@@ -29,12 +29,14 @@ pub mod checkpoint;
 pub mod dataset_loader;
 pub mod error;
 pub mod evaluation;
+mod figures;
 pub mod plots;
 pub mod report;
 pub mod split;
 #[cfg(test)]
 mod test_util;
 pub mod trainer;
+pub mod training_loop;
 
 pub use alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
 pub use baseline::{
@@ -53,7 +55,5 @@ pub use report::{
     Timing,
 };
 pub use split::{Split, SplitConfig, material_indices};
-pub use trainer::{
-    DIVERGENCE_LOSS, NetSummary, RunOptions, STD_FLOOR, TrainConfig, TrainSummary, split_path,
-    train,
-};
+pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train};
+pub use training_loop::{DIVERGENCE_LOSS, STD_FLOOR};
