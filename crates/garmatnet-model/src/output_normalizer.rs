@@ -9,9 +9,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
 
-/// A standard deviation below this is treated as zero (a coordinate that never moves) and
-/// replaced by 1, so normalising never divides by ~0.
-pub const MIN_STD: Real = 1e-8;
+/// The smallest per-coordinate standard deviation (metres); smaller ones are raised to it.
+///
+/// A coordinate that never moves (e.g. `D_local` at a corner the smoother holds fixed) has
+/// std 0. Raising it to 10 µm (not to 1, which would turn every small net error there into a
+/// metre-sized spike) keeps normalising finite and a unit net error there costs 10 µm.
+pub const MIN_STD: Real = 1e-5;
 
 /// Mean and standard deviation of each displacement coordinate over the training set
 /// (metres), vertex-major (`x0 y0 z0 x1 …`).
@@ -62,7 +65,7 @@ impl OutputNormalizer {
         Self::from_parts(mean, std)
     }
 
-    /// A normaliser from stored mean and std; stds below [`MIN_STD`] become 1.
+    /// A normaliser from stored mean and std; stds below [`MIN_STD`] are raised to it.
     ///
     /// # Errors
     /// [`garmatnet_core::Error::WrongLength`] if the lengths differ;
@@ -89,10 +92,7 @@ impl OutputNormalizer {
             }
             .into());
         }
-        let std = std
-            .into_iter()
-            .map(|s| if s < MIN_STD { 1.0 } else { s })
-            .collect();
+        let std = std.into_iter().map(|s| s.max(MIN_STD)).collect();
         Ok(Self { mean, std })
     }
 
@@ -187,7 +187,11 @@ mod tests {
         let n = OutputNormalizer::fit(&samples).unwrap();
         assert_relative_eq!(n.mean()[0], 2.0);
         assert_relative_eq!(n.std()[0], 1.0);
-        assert_eq!(n.std()[1], 1.0, "zero variance must become std 1");
+        assert_eq!(
+            n.std()[1],
+            MIN_STD,
+            "zero variance must become the floor, not 1 m"
+        );
         assert_relative_eq!(n.std()[2], 0.3);
         let z = n.normalize(&samples[0]);
         assert_relative_eq!(z[0], -1.0);

@@ -1,1 +1,59 @@
-//! Datasets, splits, training, evaluation, baselines and reports for GarMatNet.
+//! Training and evaluation of GarMatNet that reproduce the paper's protocol (§4).
+//!
+//! - [`TrainingDataset`]: a validated dataset, its rebuilt garment template, preloaded
+//!   inputs and labels (eqs. 4–5) in the model's displacement frame.
+//! - [`Split`]: unseen materials and poses to test, the rest 90/10 train/dev (§4.1).
+//! - [`train`]: Adam, MSE on normalised outputs, early stopping, resumable checkpoints
+//!   ([`CheckpointDir`]), a model file in `garmatnet-model`'s format.
+//! - [`train_baseline`]: the per-material TailorNet-style baseline.
+//! - [`evaluate`]: Table 2's errors, per-pose plots (Figs. 7–8), heat maps (Figs. 11–12),
+//!   push-out, timing and sizes, written as a [`Report`].
+//! - [`sweep_alpha`]: Table 3.
+//!
+//! Every run is described by a serde configuration, so a CLI or a JSON file can set it:
+//!
+//! ```
+//! use garmatnet_train::TrainConfig;
+//!
+//! let config: TrainConfig = serde_json::from_str(r#"{ "alpha": 0.3, "hidden": 256 }"#)?;
+//! assert_eq!(config.alpha, 0.3);
+//! assert_eq!(config.patience_local, 200, "unset fields keep the paper's defaults");
+//! assert_eq!(config.split.test_materials.len(), 4);
+//! config.validate()?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod alpha_sweep;
+pub mod baseline;
+pub mod checkpoint;
+pub mod dataset_loader;
+pub mod error;
+pub mod evaluation;
+mod figures;
+pub mod plots;
+pub mod report;
+pub mod split;
+#[cfg(test)]
+mod test_util;
+pub mod trainer;
+pub mod training_loop;
+
+pub use alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
+pub use baseline::{
+    BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest, BaselineMaterial,
+    BaselineMaterialEntry, train_baseline,
+};
+pub use checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
+pub use dataset_loader::{
+    BODY_POINT_TOLERANCE, LoadedSamples, SampleKey, SampleTruth, TrainingDataset,
+};
+pub use error::{Error, Result};
+pub use evaluation::{EvalConfig, EvalInputs, evaluate};
+pub use plots::{Series, line_chart};
+pub use report::{
+    ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
+    Timing,
+};
+pub use split::{Split, SplitConfig, material_indices};
+pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train};
+pub use training_loop::{DIVERGENCE_LOSS, STD_FLOOR};

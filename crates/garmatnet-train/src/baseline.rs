@@ -1,0 +1,367 @@
+//! The paper's baseline (§4.1): TailorNet-style nets without the material input, one pair
+//! (fitting + local) per target material, trained only on that material's samples.
+//!
+//! Per target material the held-out poses are test; the material's remaining samples are
+//! split 90/10 into train/dev with the same seeded shuffle rule as GarMatNet's split.
+//!
+//! **Replication** (the paper's "we replicate the remaining data 67 times"): one baseline
+//! epoch makes `k` shuffled passes over the material's training samples — the index list is
+//! repeated `k` times and shuffled as one — so that an epoch sees about as many instances as
+//! a GarMatNet epoch. By default `k = max(1, round(N_garmatnet_train / N_material_train))`.
+//! Early stopping checks the dev loss once per (replicated) epoch.
+//!
+//! # Directory layout
+//! `baseline.json` ([`BaselineManifest`]: configs, normalisers, splits) and per material
+//! `m{index}-fitting.bpk`, `m{index}-local.bpk` (Burn burnpack records).
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::prelude::*;
+use burn::store::ModuleRecord;
+use burn::tensor::Bytes;
+use garmatnet_core::SplitMix64;
+use garmatnet_model::{BaselineNet, BaselineNetConfig, OutputNormalizer, select_device};
+use serde::{Deserialize, Serialize};
+
+use crate::dataset_loader::{SampleKey, TrainingDataset};
+use crate::error::{Error, Result};
+use crate::split::{Split, SplitConfig};
+use crate::trainer::{NetSummary, TrainConfig};
+use crate::training_loop::{DeviceSet, LoopSettings, NetSets, Outcome, fit_net, fit_normalizer};
+
+/// The baseline format version.
+pub const BASELINE_VERSION: u32 = 1;
+
+/// Settings of a baseline training run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BaselineConfig {
+    /// Seed of weights and shuffles.
+    pub seed: u64,
+    /// Adam's learning rate.
+    pub learning_rate: f64,
+    /// Mini-batch size.
+    pub batch_size: usize,
+    /// The most epochs per net.
+    pub max_epochs: usize,
+    /// Early-stopping patience of the fitting net.
+    pub patience_fitting: usize,
+    /// Early-stopping patience of the local net.
+    pub patience_local: usize,
+    /// Width of the first hidden layer.
+    pub pose_hidden: usize,
+    /// Width of the second hidden layer.
+    pub hidden: usize,
+    /// Dropout probability.
+    pub dropout: f64,
+    /// Passes over a material's training samples per epoch; `None`: match GarMatNet's
+    /// training-set size (see the module docs).
+    pub replicate: Option<usize>,
+    /// The split (target materials, held-out poses, dev fraction), as for GarMatNet.
+    pub split: SplitConfig,
+    /// Accept a dataset with missing samples.
+    pub allow_incomplete_dataset: bool,
+    /// Compute device.
+    pub device: String,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+impl Default for BaselineConfig {
+    fn default() -> Self {
+        Self::from_train_config(&TrainConfig::default())
+    }
+}
+
+impl BaselineConfig {
+    /// The same hyperparameters as a GarMatNet run (the paper tunes them once for both).
+    #[must_use]
+    pub fn from_train_config(c: &TrainConfig) -> Self {
+        Self {
+            seed: c.seed,
+            learning_rate: c.learning_rate,
+            batch_size: c.batch_size,
+            max_epochs: c.max_epochs,
+            patience_fitting: c.patience_fitting,
+            patience_local: c.patience_local,
+            pose_hidden: c.pose_hidden,
+            hidden: c.hidden,
+            dropout: c.dropout,
+            replicate: None,
+            split: c.split.clone(),
+            allow_incomplete_dataset: c.allow_incomplete_dataset,
+            device: c.device.clone(),
+            quiet: c.quiet,
+        }
+    }
+}
+
+/// One material's entry in `baseline.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BaselineMaterialEntry {
+    /// The material's name.
+    pub name: String,
+    /// Its index in the dataset.
+    pub material: usize,
+    /// Weight file of the fitting net.
+    pub fitting_file: String,
+    /// Weight file of the local net.
+    pub local_file: String,
+    /// The fitting net's output normaliser.
+    pub fitting_norm: OutputNormalizer,
+    /// The local net's output normaliser.
+    pub local_norm: OutputNormalizer,
+    /// Passes per epoch used.
+    pub replicate: usize,
+    /// Training, dev and test sample counts.
+    pub samples: [usize; 3],
+    /// The fitting net's training.
+    pub fitting: NetSummary,
+    /// The local net's training.
+    pub local: NetSummary,
+}
+
+/// `baseline.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BaselineManifest {
+    /// [`BASELINE_VERSION`].
+    pub version: u32,
+    /// The dataset fingerprint.
+    pub dataset_hash: String,
+    /// The garment template hash.
+    pub template_hash: String,
+    /// The template's vertex count n.
+    pub vertex_count: usize,
+    /// The net configuration (shared by all materials).
+    pub net: BaselineNetConfig,
+    /// The training settings.
+    pub config: BaselineConfig,
+    /// One entry per target material.
+    pub materials: Vec<BaselineMaterialEntry>,
+}
+
+/// A loaded per-material baseline pair.
+#[derive(Debug, Clone)]
+pub struct BaselineMaterial {
+    /// The material's index in the dataset.
+    pub material: usize,
+    /// The material's name.
+    pub name: String,
+    /// The fitting net (plain device).
+    pub fitting: BaselineNet,
+    /// The local net.
+    pub local: BaselineNet,
+    /// The fitting net's normaliser.
+    pub fitting_norm: OutputNormalizer,
+    /// The local net's normaliser.
+    pub local_norm: OutputNormalizer,
+}
+
+/// A loaded baseline directory.
+#[derive(Debug, Clone)]
+pub struct Baseline {
+    /// `baseline.json`.
+    pub manifest: BaselineManifest,
+    /// The nets, in manifest order.
+    pub materials: Vec<BaselineMaterial>,
+}
+
+/// Trains one baseline pair per target material and writes them to `out_dir`.
+///
+/// # Errors
+/// As [`crate::train`]; [`Error::InvalidConfig`] if a material has fewer than two
+/// non-held-out samples.
+pub fn train_baseline(
+    data_dir: &Path,
+    out_dir: &Path,
+    config: &BaselineConfig,
+) -> Result<BaselineManifest> {
+    let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
+    let keys = data.keys();
+    let split = Split::new(data.spec(), &keys, data.dataset_hash(), &config.split)?;
+    let device = select_device(&config.device)?;
+    let ad = device.clone().autodiff();
+    let n = data.vertex_count();
+    let net =
+        BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
+    net.validate()?;
+    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let progress = crate::training_loop::progress_bar(config.max_epochs, config.quiet);
+    let mut entries = Vec::new();
+    for &m in &split.test_materials {
+        let name = data.spec().materials[m].name.clone();
+        let mut own: Vec<SampleKey> = keys
+            .iter()
+            .copied()
+            .filter(|k| k.material == m && split.held_out_poses.binary_search(&k.pose).is_err())
+            .collect();
+        if own.len() < 2 {
+            return Err(Error::InvalidConfig(format!(
+                "baseline material `{name}` has {} samples outside the held-out poses; at least \
+                 2 are needed",
+                own.len()
+            )));
+        }
+        SplitMix64::new(config.split.seed ^ m as u64).shuffle(&mut own);
+        let dev_count = ((own.len() as f64 * config.split.dev_fraction).round() as usize).max(1);
+        let mut dev = own.split_off(own.len() - dev_count);
+        let mut train = own;
+        train.sort();
+        dev.sort();
+        let test_count = keys
+            .iter()
+            .filter(|k| k.material == m && split.held_out_poses.binary_search(&k.pose).is_ok())
+            .count();
+        let replicate = config.replicate.unwrap_or_else(|| {
+            ((split.train.len() as f64 / train.len() as f64).round() as usize).max(1)
+        });
+        let frame = garmatnet_core::DisplacementFrame::World;
+        let train_set = data.load(&train, frame)?;
+        let dev_set = data.load(&dev, frame)?;
+        let mut trained = Vec::new();
+        for (part, labels_train, labels_dev, patience) in [
+            (
+                "fitting",
+                &train_set.d_fitting,
+                &dev_set.d_fitting,
+                config.patience_fitting,
+            ),
+            (
+                "local",
+                &train_set.d_local,
+                &dev_set.d_local,
+                config.patience_local,
+            ),
+        ] {
+            let norm = fit_normalizer(labels_train, 3 * n)?;
+            let sets = NetSets {
+                train: DeviceSet::new(
+                    &train_set.poses,
+                    &train_set.materials,
+                    labels_train,
+                    &norm,
+                    &ad,
+                ),
+                dev: DeviceSet::new(
+                    &dev_set.poses,
+                    &dev_set.materials,
+                    labels_dev,
+                    &norm,
+                    &device,
+                ),
+            };
+            let seed = config.seed
+                ^ (m as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                ^ u64::from(part == "local");
+            ad.seed(seed);
+            let settings = LoopSettings {
+                name: format!("baseline {name} {part}"),
+                learning_rate: config.learning_rate,
+                batch_size: config.batch_size,
+                max_epochs: config.max_epochs,
+                patience,
+                replicate,
+                seed,
+            };
+            let Outcome::Done(best, progress_state) =
+                fit_net(net.init(&ad), &sets, &settings, None, &mut None, &progress)?
+            else {
+                unreachable!("a run without an epoch budget always finishes");
+            };
+            let file = format!("m{m:03}-{part}.bpk");
+            write_net(&out_dir.join(&file), &best)?;
+            trained.push((file, norm, NetSummary::from(&progress_state)));
+        }
+        let (local_file, local_norm, local) = trained.pop().expect("two nets were trained");
+        let (fitting_file, fitting_norm, fitting) = trained.pop().expect("two nets were trained");
+        entries.push(BaselineMaterialEntry {
+            name,
+            material: m,
+            fitting_file,
+            local_file,
+            fitting_norm,
+            local_norm,
+            replicate,
+            samples: [train.len(), dev.len(), test_count],
+            fitting,
+            local,
+        });
+    }
+    progress.finish_and_clear();
+    let manifest = BaselineManifest {
+        version: BASELINE_VERSION,
+        dataset_hash: data.dataset_hash().to_owned(),
+        template_hash: data.template_hash().to_owned(),
+        vertex_count: n,
+        net,
+        config: config.clone(),
+        materials: entries,
+    };
+    let json = serde_json::to_vec_pretty(&manifest)
+        .map_err(|e| Error::InvalidConfig(format!("cannot encode baseline.json: {e}")))?;
+    garmatnet_core::write_bytes_atomic(out_dir.join("baseline.json"), &json)?;
+    crate::report::make_readable(&out_dir.join("baseline.json"));
+    Ok(manifest)
+}
+
+impl Baseline {
+    /// Loads a baseline directory written by [`train_baseline`].
+    ///
+    /// # Errors
+    /// [`Error::Io`] if `baseline.json` cannot be read; [`Error::Checkpoint`] for a corrupt
+    /// manifest or weight file.
+    pub fn load(dir: &Path, device: &Device) -> Result<Self> {
+        let path = dir.join("baseline.json");
+        let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+        let corrupt = |message: String| Error::Checkpoint {
+            path: path.clone(),
+            message,
+        };
+        let manifest: BaselineManifest = serde_json::from_slice(&bytes)
+            .map_err(|e| corrupt(format!("bad baseline.json: {e}")))?;
+        if manifest.version != BASELINE_VERSION {
+            return Err(corrupt(format!("version {}", manifest.version)));
+        }
+        let mut materials = Vec::new();
+        for e in &manifest.materials {
+            let load = |file: &str| -> Result<BaselineNet> {
+                let p: PathBuf = dir.join(file);
+                let bytes = std::fs::read(&p).map_err(|err| Error::io(&p, err))?;
+                let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(bytes))
+                    .map_err(|err| corrupt(format!("{file}: {err}")))?;
+                manifest
+                    .net
+                    .init(device)
+                    .try_load_record(record)
+                    .map_err(|err| corrupt(format!("{file}: {err}")))
+            };
+            materials.push(BaselineMaterial {
+                material: e.material,
+                name: e.name.clone(),
+                fitting: load(&e.fitting_file)?.valid(),
+                local: load(&e.local_file)?.valid(),
+                fitting_norm: e.fitting_norm.clone(),
+                local_norm: e.local_norm.clone(),
+            });
+        }
+        Ok(Self {
+            manifest,
+            materials,
+        })
+    }
+}
+
+fn write_net(path: &Path, net: &BaselineNet) -> Result<()> {
+    let bytes = net
+        .clone()
+        .into_record()
+        .into_bytes()
+        .map_err(|e| Error::Checkpoint {
+            path: path.to_owned(),
+            message: format!("cannot encode the baseline net: {e}"),
+        })?;
+    garmatnet_core::write_bytes_atomic(path, &bytes)?;
+    crate::report::make_readable(path);
+    Ok(())
+}

@@ -1,0 +1,425 @@
+//! Loading a dataset for training and evaluation: validation, the rebuilt garment template,
+//! the network inputs (θ, normalised ω) and the labels of eqs. 4–5 in the model's frame.
+//!
+//! Samples are preloaded into flat `f32` buffers once, so an epoch only slices memory.
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use garmatnet_core::{
+    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, POSE_DIM, Resolution, Skeleton,
+    SkinnedBody, Vec3, decompose, field_to_frame,
+};
+use garmatnet_model::MATERIAL_DIM;
+use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// How far (metres) a stored per-vertex body point may be from the rebuilt template's posed
+/// anchor before the dataset is judged to belong to another template or body.
+pub const BODY_POINT_TOLERANCE: f64 = 1e-3;
+
+/// One sample, by its material and pose indices into the dataset's spec.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct SampleKey {
+    /// Index into the dataset's materials.
+    pub material: usize,
+    /// Index into the dataset's poses.
+    pub pose: usize,
+}
+
+/// A validated dataset with the garment template it was made for.
+#[derive(Debug)]
+pub struct TrainingDataset {
+    reader: DatasetReader,
+    garment: Garment,
+    body: CapsuleBody,
+    template_hash: String,
+    dataset_hash: String,
+}
+
+/// One sample's world-frame ground truth (metres), for evaluation.
+#[derive(Debug, Clone)]
+pub struct SampleTruth {
+    /// The posed anchors the displacements are measured from (one per garment vertex).
+    pub body_points: Vec<Vec3>,
+    /// The Laplacian-smoothed garment.
+    pub smoothed: Vec<Vec3>,
+    /// The simulated garment.
+    pub simulated: Vec<Vec3>,
+    /// The pose's skinning transforms.
+    pub transforms: [Iso3; JOINT_COUNT],
+}
+
+/// Preloaded inputs and labels of a set of samples.
+///
+/// # Shapes
+/// `poses`: `[S, 72]`; `materials`: `[S, 6]`; `d_fitting`, `d_local`: `[S, 3n]`, all
+/// row-major, labels in metres in [`LoadedSamples::frame`].
+#[derive(Debug, Clone, Default)]
+pub struct LoadedSamples {
+    /// The samples, in row order.
+    pub keys: Vec<SampleKey>,
+    /// The garment vertex count n.
+    pub vertex_count: usize,
+    /// The frame of the labels.
+    pub frame: DisplacementFrame,
+    /// θ per sample (radians).
+    pub poses: Vec<f32>,
+    /// Normalised ω per sample.
+    pub materials: Vec<f32>,
+    /// Smoothed garment minus body points (eq. 5).
+    pub d_fitting: Vec<f32>,
+    /// Simulated minus smoothed garment (eq. 4).
+    pub d_local: Vec<f32>,
+}
+
+impl LoadedSamples {
+    /// The number of samples S.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.keys.len()
+    }
+
+    /// Whether there are no samples.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty()
+    }
+}
+
+impl TrainingDataset {
+    /// Opens and validates `dir`: the manifest, completeness (unless `allow_incomplete`), and
+    /// the garment template, rebuilt from the manifest's resolution on the capsule body and
+    /// checked against the manifest's template hash and vertex count.
+    ///
+    /// # Errors
+    /// [`Error::Core`] for an unreadable or malformed manifest; [`Error::Dataset`] for
+    /// missing samples (named), an unknown resolution or a template mismatch.
+    pub fn open(dir: impl AsRef<Path>, allow_incomplete: bool) -> Result<Self> {
+        let dir = dir.as_ref();
+        let reader = DatasetReader::open(dir)?;
+        let spec = reader.spec();
+        let bad = |message: String| Error::Dataset {
+            dir: dir.to_owned(),
+            message,
+        };
+        if reader.samples().is_empty() {
+            return Err(bad("it has no finished samples".into()));
+        }
+        if !allow_incomplete {
+            let missing: Vec<String> = (0..spec.materials.len())
+                .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
+                .filter(|&(m, p)| reader.sample(m, p).is_none())
+                .map(|(m, p)| garmatnet_sim::sample_stem(m, p))
+                .collect();
+            if let Some(first) = missing.first() {
+                return Err(bad(format!(
+                    "{} of {} samples are missing (first: {first}, material `{}`); finish \
+                     generating it or allow an incomplete dataset",
+                    missing.len(),
+                    spec.materials.len() * spec.poses.len(),
+                    spec.materials
+                        [garmatnet_sim::manifest::parse_sample_stem(first).map_or(0, |(m, _)| m)]
+                    .name
+                )));
+            }
+        }
+        let resolution = Resolution::from_str(&spec.template.resolution).map_err(|_| {
+            bad(format!(
+                "template resolution `{}` is not one of coarse, default, paper",
+                spec.template.resolution
+            ))
+        })?;
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(resolution, &body)?;
+        let template_hash = format!("{:016x}", garment.template_hash());
+        if template_hash != spec.template.hash
+            || garment.vertex_count() != spec.template.vertex_count
+        {
+            return Err(bad(format!(
+                "it was made for template {} ({} vertices) but this build's {} T-shirt is {} \
+                 ({} vertices); regenerate the dataset with this version",
+                spec.template.hash,
+                spec.template.vertex_count,
+                resolution,
+                template_hash,
+                garment.vertex_count()
+            )));
+        }
+        let dataset_hash = dataset_hash(spec, reader.samples());
+        Ok(Self {
+            reader,
+            garment,
+            body,
+            template_hash,
+            dataset_hash,
+        })
+    }
+
+    /// The dataset directory.
+    #[must_use]
+    pub fn dir(&self) -> &Path {
+        self.reader.dir()
+    }
+
+    /// The dataset's spec (materials, poses, frames, template).
+    #[must_use]
+    pub fn spec(&self) -> &DatasetSpec {
+        self.reader.spec()
+    }
+
+    /// The finished samples, sorted by (material, pose).
+    #[must_use]
+    pub fn records(&self) -> &[SampleRecord] {
+        self.reader.samples()
+    }
+
+    /// Every finished sample's key.
+    #[must_use]
+    pub fn keys(&self) -> Vec<SampleKey> {
+        self.records()
+            .iter()
+            .map(|r| SampleKey {
+                material: r.material,
+                pose: r.pose,
+            })
+            .collect()
+    }
+
+    /// The rebuilt garment template.
+    #[must_use]
+    pub fn garment(&self) -> &Garment {
+        &self.garment
+    }
+
+    /// The capsule body the garments were draped on.
+    #[must_use]
+    pub fn body(&self) -> &CapsuleBody {
+        &self.body
+    }
+
+    /// The body's skeleton.
+    #[must_use]
+    pub fn skeleton(&self) -> &Skeleton {
+        self.body.skeleton()
+    }
+
+    /// The template hash (hex), as stored in the manifest and the model file.
+    #[must_use]
+    pub fn template_hash(&self) -> &str {
+        &self.template_hash
+    }
+
+    /// A fingerprint (FNV-1a 64, hex) of the spec and the finished samples' records; it
+    /// changes when samples are added, regenerated or removed, not with the array bytes.
+    #[must_use]
+    pub fn dataset_hash(&self) -> &str {
+        &self.dataset_hash
+    }
+
+    /// The garment vertex count n.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.garment.vertex_count()
+    }
+
+    /// Material names, in index order.
+    #[must_use]
+    pub fn material_names(&self) -> Vec<String> {
+        self.spec()
+            .materials
+            .iter()
+            .map(|m| m.name.clone())
+            .collect()
+    }
+
+    /// Reads one sample's world-frame ground truth.
+    ///
+    /// # Errors
+    /// [`Error::Dataset`] if the sample is not finished or its stored body points disagree
+    /// with the template's posed anchors; [`Error::Core`] for unreadable arrays (naming the
+    /// sample).
+    pub fn truth(&self, key: SampleKey) -> Result<SampleTruth> {
+        let record = self
+            .reader
+            .sample(key.material, key.pose)
+            .ok_or_else(|| Error::Dataset {
+                dir: self.dir().to_owned(),
+                message: format!(
+                    "sample {} is not finished",
+                    garmatnet_sim::sample_stem(key.material, key.pose)
+                ),
+            })?;
+        let arrays = self.reader.read_sample(record)?;
+        let transforms = self
+            .skeleton()
+            .skinning_transforms(&self.spec().poses[key.pose]);
+        let body_points = self.garment.body_points(&transforms);
+        if arrays.body.len() == body_points.len() {
+            let worst = arrays
+                .body
+                .iter()
+                .zip(&body_points)
+                .map(|(s, b)| (to_vec3(s) - b).norm())
+                .fold(0.0, f64::max);
+            if worst > BODY_POINT_TOLERANCE {
+                return Err(Error::Dataset {
+                    dir: self.dir().to_owned(),
+                    message: format!(
+                        "sample {}: stored body points are up to {:.1} mm from the template's \
+                         posed anchors; the dataset was made with another body or template",
+                        record.stem,
+                        worst * 1e3
+                    ),
+                });
+            }
+        }
+        Ok(SampleTruth {
+            body_points,
+            smoothed: arrays.smoothed.iter().map(to_vec3).collect(),
+            simulated: arrays.simulated.iter().map(to_vec3).collect(),
+            transforms,
+        })
+    }
+
+    /// θ and normalised ω of a sample, as network inputs.
+    #[must_use]
+    pub fn inputs(&self, key: SampleKey) -> ([f32; POSE_DIM], [f32; MATERIAL_DIM]) {
+        let pose = self.spec().poses[key.pose].to_vec();
+        let omega = self.spec().materials[key.material].omega_normalized;
+        (
+            std::array::from_fn(|i| pose[i] as f32),
+            std::array::from_fn(|i| omega[i] as f32),
+        )
+    }
+
+    /// Preloads `keys`' inputs and labels, the labels expressed in `frame`.
+    ///
+    /// # Errors
+    /// As [`TrainingDataset::truth`], naming the first bad sample.
+    pub fn load(&self, keys: &[SampleKey], frame: DisplacementFrame) -> Result<LoadedSamples> {
+        let n3 = 3 * self.vertex_count();
+        let mut out = LoadedSamples {
+            keys: keys.to_vec(),
+            vertex_count: self.vertex_count(),
+            frame,
+            poses: Vec::with_capacity(keys.len() * POSE_DIM),
+            materials: Vec::with_capacity(keys.len() * MATERIAL_DIM),
+            d_fitting: Vec::with_capacity(keys.len() * n3),
+            d_local: Vec::with_capacity(keys.len() * n3),
+        };
+        for &key in keys {
+            let truth = self.truth(key)?;
+            let parts = decompose(&truth.simulated, &truth.smoothed, &truth.body_points)?;
+            let anchors = &self.garment.anchors;
+            let fit = field_to_frame(&parts.d_fitting, anchors, frame, &truth.transforms)?;
+            let local = field_to_frame(&parts.d_local, anchors, frame, &truth.transforms)?;
+            let (pose, material) = self.inputs(key);
+            out.poses.extend(pose);
+            out.materials.extend(material);
+            out.d_fitting.extend(
+                fit.iter()
+                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
+            );
+            out.d_local.extend(
+                local
+                    .iter()
+                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
+            );
+        }
+        Ok(out)
+    }
+}
+
+fn to_vec3(p: &[f32; 3]) -> Vec3 {
+    Vec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]))
+}
+
+/// FNV-1a 64 over the spec's JSON and each finished sample's record JSON.
+fn dataset_hash(spec: &DatasetSpec, records: &[SampleRecord]) -> String {
+    let mut hash = Fnv1a::default();
+    hash.write(&serde_json::to_vec(spec).unwrap_or_default());
+    for r in records {
+        hash.write(&serde_json::to_vec(r).unwrap_or_default());
+    }
+    format!("{:016x}", hash.0)
+}
+
+/// The 64-bit FNV-1a hash, for fingerprints that must be stable across platforms.
+pub(crate) struct Fnv1a(pub(crate) u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    pub(crate) fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// `PathBuf` of a file next to `model` named `{model stem}.{suffix}`.
+pub(crate) fn sibling(model: &Path, suffix: &str) -> PathBuf {
+    let stem = model
+        .file_stem()
+        .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
+    model.with_file_name(format!("{stem}.{suffix}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::synthetic_dataset;
+
+    #[test]
+    fn labels_decompose_the_garment_and_bad_datasets_name_the_sample() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 3, 4);
+        let set = TrainingDataset::open(&data, false).unwrap();
+        let key = SampleKey {
+            material: 1,
+            pose: 2,
+        };
+        let truth = set.truth(key).unwrap();
+        let loaded = set.load(&[key], DisplacementFrame::World).unwrap();
+        for i in 0..set.vertex_count() {
+            for c in 0..3 {
+                let rebuilt = truth.body_points[i][c]
+                    + f64::from(loaded.d_fitting[3 * i + c])
+                    + f64::from(loaded.d_local[3 * i + c]);
+                approx::assert_abs_diff_eq!(rebuilt, truth.simulated[i][c], epsilon = 1e-5);
+            }
+        }
+        assert_eq!(loaded.poses.len(), POSE_DIM);
+        assert_eq!(loaded.materials.len(), MATERIAL_DIM);
+
+        // A corrupt array names its sample when loaded.
+        let stem = garmatnet_sim::sample_stem(1, 2);
+        let npy = data.join("samples").join(&stem).join("smoothed.npy");
+        std::fs::write(&npy, b"not an npy").unwrap();
+        let err = set.load(&[key], DisplacementFrame::World).unwrap_err();
+        assert!(err.to_string().contains(&stem), "{err}");
+
+        // A missing sample makes the dataset incomplete, named in the error.
+        std::fs::remove_dir_all(data.join("samples").join(&stem)).unwrap();
+        let err = TrainingDataset::open(&data, false).unwrap_err();
+        assert!(err.to_string().contains(&stem), "{err}");
+        assert!(TrainingDataset::open(&data, true).is_ok());
+
+        // Another template hash is refused.
+        let manifest = data.join("manifest.json");
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        let hash = set.template_hash().to_owned();
+        std::fs::write(&manifest, text.replace(&hash, "0123456789abcdef")).unwrap();
+        let err = TrainingDataset::open(&data, true).unwrap_err();
+        assert!(err.to_string().contains("regenerate the dataset"), "{err}");
+    }
+}

@@ -1,0 +1,114 @@
+//! The training crate's error type: every variant says what went wrong and what to fix.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while training or evaluating.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Bad input caught by `garmatnet-core` or the dataset reader (`garmatnet-sim`): a
+    /// malformed manifest, a corrupt or missing sample (named in the message), NaN values.
+    #[error(transparent)]
+    Core(#[from] garmatnet_core::Error),
+
+    /// A model-crate error: an invalid network configuration, a corrupt model file, a
+    /// template mismatch.
+    #[error(transparent)]
+    Model(#[from] garmatnet_model::Error),
+
+    /// A file or directory could not be read or written. Check the path and permissions.
+    #[error("cannot access `{path}`: {source}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The operating system's reason.
+        source: std::io::Error,
+    },
+
+    /// A training, split or evaluation setting is unusable. The message names the field.
+    #[error("invalid configuration: {0}")]
+    InvalidConfig(String),
+
+    /// The dataset cannot be used as it is (incomplete, another template, inconsistent body
+    /// points). The message names the sample or field; regenerate or complete the dataset.
+    #[error("dataset `{dir}` cannot be used: {message}")]
+    Dataset {
+        /// The dataset directory.
+        dir: PathBuf,
+        /// What is wrong, naming the sample where there is one.
+        message: String,
+    },
+
+    /// Target materials named for the test split are not in the dataset. Pick some of the
+    /// available ones.
+    #[error(
+        "test material(s) {missing:?} are not in the dataset; available materials: {available:?}"
+    )]
+    UnknownMaterials {
+        /// The requested names that were not found.
+        missing: Vec<String>,
+        /// Every material name of the dataset.
+        available: Vec<String>,
+    },
+
+    /// Training diverged: the loss became NaN or infinite. No model file was written; the
+    /// last good checkpoint (if any) is kept. Lower the learning rate and resume or restart.
+    #[error(
+        "training of the {net} net diverged at epoch {epoch}: the loss is {loss} (NaN or \
+         infinite); lower the learning rate (now {learning_rate}). No model was written{kept}"
+    )]
+    Diverged {
+        /// Which net (`fitting`, `local`, `baseline <material> fitting`, ...).
+        net: String,
+        /// The epoch (1-based) whose loss was not finite.
+        epoch: usize,
+        /// The offending loss.
+        loss: f64,
+        /// The learning rate used.
+        learning_rate: f64,
+        /// Where the last good checkpoint is, as a sentence fragment (may be empty).
+        kept: String,
+    },
+
+    /// A split file does not belong to this dataset or model, or would leak test samples
+    /// into training. Re-train so that the split is written by the trainer.
+    #[error("split `{path}` is unusable: {message}")]
+    Split {
+        /// The split file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+
+    /// A checkpoint cannot be resumed (corrupt, or written with another configuration or
+    /// dataset). Delete the checkpoint directory to start over.
+    #[error("checkpoint `{path}` cannot be resumed: {message}")]
+    Checkpoint {
+        /// The checkpoint directory.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+
+    /// Drawing a chart failed (plotters).
+    #[error("cannot draw the plot `{path}`: {message}")]
+    Plot {
+        /// The image being drawn.
+        path: PathBuf,
+        /// The plotting library's message.
+        message: String,
+    },
+}
+
+impl Error {
+    /// An [`Error::Io`] for `path`.
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Shorthand for results in `garmatnet-train`.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

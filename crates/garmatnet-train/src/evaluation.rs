@@ -1,0 +1,700 @@
+//! Evaluation on the test split the model was trained with (paper §4.2, Table 2, Figs. 7–8
+//! and 11–12): errors in millimetres, per-pose plots, heat maps, push-out statistics,
+//! timing and model sizes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::prelude::*;
+use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3};
+use garmatnet_model::{
+    Detail, GarMatNetModel, OutputNormalizer, Predictor, push_out, select_device,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::baseline::Baseline;
+use crate::dataset_loader::{SampleKey, TrainingDataset};
+use crate::error::{Error, Result};
+use crate::report::{
+    ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
+    Timing, spread_mm,
+};
+use crate::split::Split;
+use crate::trainer::split_path;
+
+/// Evaluation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct EvalConfig {
+    /// Compute device: `cpu`, `gpu` or `auto`.
+    pub device: String,
+    /// The push-out clearance ε (metres).
+    pub push_out_epsilon: f64,
+    /// Repeats of the batch-1 timing (the median is reported).
+    pub timing_repeats: usize,
+    /// The batch size of the batched timing.
+    pub timing_batch: usize,
+    /// Write the per-pose plots, heat maps and PLY files.
+    pub figures: bool,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            device: "cpu".into(),
+            push_out_epsilon: 0.002,
+            timing_repeats: 20,
+            timing_batch: 64,
+            figures: true,
+        }
+    }
+}
+
+/// What to evaluate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EvalInputs {
+    /// The dataset the model was trained on.
+    pub data_dir: PathBuf,
+    /// The GarMatNet model file (its split file must lie next to it).
+    pub model: PathBuf,
+    /// A baseline directory from [`crate::train_baseline`], if any.
+    pub baseline: Option<PathBuf>,
+    /// A second GarMatNet model trained on the same split (e.g. the other displacement
+    /// frame) for the frame comparison, if any.
+    pub compare_model: Option<PathBuf>,
+    /// Where `report.json`, `report.md` and the figures go (created if needed).
+    pub out_dir: PathBuf,
+}
+
+/// Per-vertex errors (metres) of one prediction.
+pub(crate) struct VertexErrors {
+    pub(crate) fitting: Vec<f64>,
+    pub(crate) local: Vec<f64>,
+    pub(crate) whole: Vec<f64>,
+}
+
+impl VertexErrors {
+    pub(crate) fn means_mm(&self) -> PartErrors {
+        let mean = |v: &[f64]| 1e3 * v.iter().sum::<f64>() / v.len().max(1) as f64;
+        PartErrors {
+            fitting_mm: mean(&self.fitting),
+            local_mm: mean(&self.local),
+            whole_mm: mean(&self.whole),
+        }
+    }
+}
+
+/// A prediction: world-frame displacements (metres) per vertex.
+pub(crate) struct Prediction {
+    pub(crate) d_fitting: Vec<Vec3>,
+    pub(crate) d_local: Vec<Vec3>,
+}
+
+/// Evaluates `inputs.model` (and the baseline / second model) on the model's test split and
+/// writes the report and figures into `inputs.out_dir`.
+///
+/// # Errors
+/// [`Error::Split`] if the split file is missing, leaks or belongs to another dataset;
+/// model errors for a corrupt model or another template; dataset errors naming the sample.
+pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
+    let device = select_device(&config.device)?;
+    let data = TrainingDataset::open(&inputs.data_dir, true)?;
+    let model = load_model(&inputs.model, &data, &device)?;
+    let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
+    std::fs::create_dir_all(&inputs.out_dir).map_err(|e| Error::io(&inputs.out_dir, e))?;
+    let spec = data.spec();
+    let comparison = split.comparison_test();
+
+    // GarMatNet on the whole test set, keeping per-vertex errors for the heat maps.
+    let mut all_errors = Vec::with_capacity(split.test.len());
+    let mut penetration = PenetrationAccumulator::default();
+    for keys in split.test.chunks(64) {
+        let preds = predict_garmatnet(&model, &data, keys, &device)?;
+        for (&key, pred) in keys.iter().zip(preds) {
+            let truth = data.truth(key)?;
+            let errors = vertex_errors(&truth, &pred);
+            let posed = data.body().pose(&spec.poses[key.pose]);
+            let mut garment: Vec<Vec3> = truth
+                .body_points
+                .iter()
+                .zip(pred.d_fitting.iter().zip(&pred.d_local))
+                .map(|(b, (f, l))| b + (f + l))
+                .collect();
+            penetration.add(
+                &mut garment,
+                &truth.simulated,
+                &posed,
+                config.push_out_epsilon,
+            );
+            all_errors.push((key, errors));
+        }
+    }
+    let stats_of = |filter: &dyn Fn(&SampleKey) -> bool| {
+        let chosen: Vec<&(SampleKey, VertexErrors)> =
+            all_errors.iter().filter(|(k, _)| filter(k)).collect();
+        error_stats(chosen.iter().map(|(_, e)| e))
+    };
+    let garmatnet_all_test = stats_of(&|_| true);
+    let garmatnet = stats_of(&|k| comparison.binary_search(k).is_ok());
+
+    // The baseline on the comparison set.
+    let baseline = match &inputs.baseline {
+        Some(dir) => Some(Baseline::load(dir, &device)?),
+        None => None,
+    };
+    let mut baseline_errors: Vec<(SampleKey, VertexErrors)> = Vec::new();
+    if let Some(b) = &baseline {
+        if b.manifest.template_hash != data.template_hash() {
+            return Err(Error::Dataset {
+                dir: inputs.data_dir.clone(),
+                message: "the baseline was trained for another garment template".into(),
+            });
+        }
+        for m in &b.materials {
+            let keys: Vec<SampleKey> = comparison
+                .iter()
+                .copied()
+                .filter(|k| k.material == m.material)
+                .collect();
+            for chunk in keys.chunks(64) {
+                let preds = predict_baseline(m, &data, chunk, &device)?;
+                for (&key, pred) in chunk.iter().zip(preds) {
+                    let truth = data.truth(key)?;
+                    baseline_errors.push((key, vertex_errors(&truth, &pred)));
+                }
+            }
+        }
+        baseline_errors.sort_by_key(|(k, _)| *k);
+    }
+    let baseline_stats = baseline
+        .as_ref()
+        .map(|_| error_stats(baseline_errors.iter().map(|(_, e)| e)));
+
+    let per_sample: Vec<SampleErrors> = all_errors
+        .iter()
+        .filter(|(k, _)| comparison.binary_search(k).is_ok())
+        .map(|(k, e)| SampleErrors {
+            material: spec.materials[k.material].name.clone(),
+            pose: k.pose,
+            frame: spec.frames[k.pose],
+            garmatnet: e.means_mm(),
+            baseline: baseline_errors
+                .binary_search_by_key(k, |(bk, _)| *bk)
+                .ok()
+                .map(|i| baseline_errors[i].1.means_mm()),
+        })
+        .collect();
+
+    let frame_comparison = match &inputs.compare_model {
+        Some(path) => Some(compare_frames(
+            path,
+            &split,
+            &data,
+            &device,
+            &model,
+            garmatnet_all_test.whole_mm,
+        )?),
+        None => None,
+    };
+
+    let mut files = Vec::new();
+    if config.figures {
+        files.extend(crate::figures::per_pose_plots(
+            &inputs.out_dir,
+            &split,
+            &data,
+            &per_sample,
+        )?);
+        files.extend(crate::figures::heat_maps(
+            &inputs.out_dir,
+            &split,
+            &data,
+            &all_errors,
+            (&baseline_errors, baseline.as_ref()),
+            &model,
+            &device,
+        )?);
+    }
+
+    let sizes = ModelSizes {
+        garmatnet_mb: file_size(&inputs.model) as f64 / 1e6,
+        baseline_mb: inputs.baseline.as_ref().map(|d| dir_size(d) as f64 / 1e6),
+    };
+    let timing = time_inference(&model, &data, &split.test, &device, config)?;
+    let report = Report {
+        dataset_hash: data.dataset_hash().to_owned(),
+        displacement_frame: frame_name(model.displacement_frame()).into(),
+        test_materials: split
+            .test_materials
+            .iter()
+            .map(|&m| spec.materials[m].name.clone())
+            .collect(),
+        held_out_poses: split.held_out_poses.len(),
+        garmatnet,
+        baseline: baseline_stats,
+        garmatnet_all_test,
+        per_sample,
+        penetration: penetration.finish(config.push_out_epsilon),
+        timing,
+        sizes,
+        frame_comparison,
+        files,
+    };
+    report.write(&inputs.out_dir)?;
+    Ok(report)
+}
+
+fn frame_name(frame: DisplacementFrame) -> &'static str {
+    match frame {
+        DisplacementFrame::World => "world",
+        DisplacementFrame::Canonical => "canonical",
+    }
+}
+
+fn load_model(path: &Path, data: &TrainingDataset, device: &Device) -> Result<GarMatNetModel> {
+    let model = GarMatNetModel::load(path, device)?;
+    model.ensure_template(data.template_hash(), data.vertex_count())?;
+    Ok(model)
+}
+
+/// `[B, 72]` and `[B, 6]` input tensors of `keys`.
+fn input_tensors(
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> (Tensor<2>, Tensor<2>) {
+    let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
+    let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
+    for &k in keys {
+        let (p, m) = data.inputs(k);
+        poses.extend(p);
+        materials.extend(m);
+    }
+    let b = keys.len();
+    (
+        Tensor::from_data(TensorData::new(poses, [b, POSE_DIM]), device),
+        Tensor::from_data(TensorData::new(materials, [b, MATERIAL_DIM]), device),
+    )
+}
+
+fn to_f32(t: Tensor<2>) -> Vec<f32> {
+    t.into_data()
+        .try_into_vec_as::<f32>()
+        .unwrap_or_else(|e| panic!("reading a tensor back from the device failed: {e:?}"))
+}
+
+/// Denormalised world-frame displacements of each row of `fitting` / `local` (`[B, 3n]`).
+fn assemble(
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    fitting: &[f32],
+    local: &[f32],
+    norms: (&OutputNormalizer, &OutputNormalizer),
+    frame: DisplacementFrame,
+) -> Vec<Prediction> {
+    let n3 = 3 * data.vertex_count();
+    keys.iter()
+        .enumerate()
+        .map(|(b, &key)| {
+            let transforms = data
+                .skeleton()
+                .skinning_transforms(&data.spec().poses[key.pose]);
+            let anchors = &data.garment().anchors;
+            let field = |raw: &[f32], norm: &OutputNormalizer| -> Vec<Vec3> {
+                let d = norm.denormalize(&raw[b * n3..(b + 1) * n3]);
+                d.chunks_exact(3)
+                    .zip(anchors)
+                    .map(|(c, a)| a.from_frame(&Vec3::new(c[0], c[1], c[2]), frame, &transforms))
+                    .collect()
+            };
+            Prediction {
+                d_fitting: field(fitting, norms.0),
+                d_local: field(local, norms.1),
+            }
+        })
+        .collect()
+}
+
+pub(crate) fn predict_garmatnet(
+    model: &GarMatNetModel,
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> Result<Vec<Prediction>> {
+    let (p, m) = input_tensors(data, keys, device);
+    let fitting = to_f32(model.fitting.forward(p.clone(), m.clone()));
+    let local = to_f32(model.local.forward(p, m));
+    Ok(assemble(
+        data,
+        keys,
+        &fitting,
+        &local,
+        (&model.fitting_norm, &model.local_norm),
+        model.displacement_frame(),
+    ))
+}
+
+pub(crate) fn predict_baseline(
+    m: &crate::baseline::BaselineMaterial,
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> Result<Vec<Prediction>> {
+    let (p, _) = input_tensors(data, keys, device);
+    let fitting = to_f32(m.fitting.forward(p.clone()));
+    let local = to_f32(m.local.forward(p));
+    Ok(assemble(
+        data,
+        keys,
+        &fitting,
+        &local,
+        (&m.fitting_norm, &m.local_norm),
+        DisplacementFrame::World,
+    ))
+}
+
+/// Per-vertex errors (metres) of a prediction against the truth.
+fn vertex_errors(truth: &crate::dataset_loader::SampleTruth, pred: &Prediction) -> VertexErrors {
+    let n = truth.body_points.len();
+    let mut e = VertexErrors {
+        fitting: Vec::with_capacity(n),
+        local: Vec::with_capacity(n),
+        whole: Vec::with_capacity(n),
+    };
+    for i in 0..n {
+        let body = truth.body_points[i];
+        let smooth = body + pred.d_fitting[i];
+        let garment = body + (pred.d_fitting[i] + pred.d_local[i]);
+        let true_local = truth.simulated[i] - truth.smoothed[i];
+        e.fitting.push((smooth - truth.smoothed[i]).norm());
+        e.local.push((pred.d_local[i] - true_local).norm());
+        e.whole.push((garment - truth.simulated[i]).norm());
+    }
+    e
+}
+
+fn error_stats<'a>(errors: impl Iterator<Item = &'a VertexErrors>) -> ErrorStats {
+    let (mut fitting, mut local, mut whole) = (0.0, 0.0, Vec::new());
+    let mut samples = 0;
+    let mut vertices = 0usize;
+    for e in errors {
+        samples += 1;
+        vertices += e.whole.len();
+        fitting += e.fitting.iter().sum::<f64>();
+        local += e.local.iter().sum::<f64>();
+        whole.extend_from_slice(&e.whole);
+    }
+    let (whole_mm, whole_p95_mm, whole_max_mm) = spread_mm(&mut whole);
+    let v = vertices.max(1) as f64;
+    ErrorStats {
+        fitting_mm: 1e3 * fitting / v,
+        local_mm: 1e3 * local / v,
+        whole_mm,
+        whole_max_mm,
+        whole_p95_mm,
+        samples,
+    }
+}
+
+/// Push-out statistics, accumulated sample by sample.
+#[derive(Default)]
+struct PenetrationAccumulator {
+    samples: usize,
+    inside_before: f64,
+    inside_after: f64,
+    max_before: f64,
+    max_after: f64,
+    error_after: f64,
+    vertices: usize,
+}
+
+impl PenetrationAccumulator {
+    fn add(
+        &mut self,
+        garment: &mut [Vec3],
+        simulated: &[Vec3],
+        body: &dyn SignedDistance,
+        epsilon: f64,
+    ) {
+        let depths = |g: &[Vec3]| -> (usize, f64) {
+            g.iter().fold((0, 0.0f64), |(count, deepest), v| {
+                let d = body.distance(v);
+                if d < 0.0 {
+                    (count + 1, deepest.max(-d))
+                } else {
+                    (count, deepest)
+                }
+            })
+        };
+        let n = garment.len().max(1) as f64;
+        let (inside, deepest) = depths(garment);
+        self.inside_before += inside as f64 / n;
+        self.max_before = self.max_before.max(deepest);
+        let _ = push_out(garment, body, epsilon);
+        let (inside, deepest) = depths(garment);
+        self.inside_after += inside as f64 / n;
+        self.max_after = self.max_after.max(deepest);
+        self.error_after += garment
+            .iter()
+            .zip(simulated)
+            .map(|(g, s)| (g - s).norm())
+            .sum::<f64>();
+        self.vertices += garment.len();
+        self.samples += 1;
+    }
+
+    fn finish(&self, epsilon: f64) -> PenetrationStats {
+        let s = self.samples.max(1) as f64;
+        PenetrationStats {
+            epsilon_mm: epsilon * 1e3,
+            inside_fraction_before: self.inside_before / s,
+            inside_fraction_after: self.inside_after / s,
+            max_depth_before_mm: self.max_before * 1e3,
+            max_depth_after_mm: self.max_after * 1e3,
+            whole_mm_after: 1e3 * self.error_after / self.vertices.max(1) as f64,
+        }
+    }
+}
+
+fn compare_frames(
+    path: &Path,
+    split: &Split,
+    data: &TrainingDataset,
+    device: &Device,
+    primary: &GarMatNetModel,
+    primary_whole_mm: f64,
+) -> Result<FrameComparison> {
+    let other = load_model(path, data, device)?;
+    let other_split = Split::read(&split_path(path), data.dataset_hash())?;
+    if other_split.test != split.test {
+        return Err(Error::Split {
+            path: split_path(path),
+            message: "the second model was trained with another test set; train both models \
+                      with the same split settings to compare them"
+                .into(),
+        });
+    }
+    let mut errors = Vec::new();
+    for keys in split.test.chunks(64) {
+        for (&key, pred) in keys
+            .iter()
+            .zip(predict_garmatnet(&other, data, keys, device)?)
+        {
+            errors.push(vertex_errors(&data.truth(key)?, &pred));
+        }
+    }
+    let other_whole = error_stats(errors.iter()).whole_mm;
+    let primary = (
+        frame_name(primary.displacement_frame()).to_owned(),
+        primary_whole_mm,
+    );
+    let other = (
+        frame_name(other.displacement_frame()).to_owned(),
+        other_whole,
+    );
+    let winner = if primary.1 <= other.1 {
+        primary.0.clone()
+    } else {
+        other.0.clone()
+    };
+    Ok(FrameComparison {
+        primary,
+        other,
+        winner,
+    })
+}
+
+fn time_inference(
+    model: &GarMatNetModel,
+    data: &TrainingDataset,
+    test: &[SampleKey],
+    device: &Device,
+    config: &EvalConfig,
+) -> Result<Timing> {
+    let predictor = Predictor::new(
+        model.clone(),
+        data.garment().rest.faces.clone(),
+        data.garment().anchors.clone(),
+        data.template_hash(),
+        data.skeleton().clone(),
+        device,
+    )?;
+    let items: Vec<_> = test
+        .iter()
+        .take(config.timing_batch.max(1))
+        .map(|&k| {
+            let omega = data.spec().materials[k.material].omega_normalized;
+            (data.spec().poses[k.pose].clone(), omega)
+        })
+        .collect();
+    let Some((pose, omega)) = items.first().cloned() else {
+        return Ok(Timing::default());
+    };
+    let _ = predictor.predict_normalized(&pose, &omega, Detail::Full)?;
+    let mut times = Vec::new();
+    for _ in 0..config.timing_repeats.max(1) {
+        let t = Instant::now();
+        let _ = predictor.predict_normalized(&pose, &omega, Detail::Full)?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    let t = Instant::now();
+    let _ = predictor.predict_batch(&items, Detail::Full)?;
+    let batched = t.elapsed().as_secs_f64() * 1e3 / items.len() as f64;
+    Ok(Timing {
+        device: config.device.clone(),
+        batch1_ms_per_frame: times[times.len() / 2],
+        batched_ms_per_frame: batched,
+        batch_size: items.len(),
+    })
+}
+
+fn file_size(path: &Path) -> u64 {
+    std::fs::metadata(path).map_or(0, |m| m.len())
+}
+
+fn dir_size(dir: &Path) -> u64 {
+    std::fs::read_dir(dir).map_or(0, |entries| {
+        entries
+            .flatten()
+            .map(|e| {
+                e.metadata()
+                    .map_or(0, |m| if m.is_file() { m.len() } else { 0 })
+            })
+            .sum()
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::baseline::{BaselineConfig, train_baseline};
+    use crate::test_util::{synthetic_dataset, training_lock};
+    use crate::trainer::tests::tiny_config;
+    use crate::trainer::{RunOptions, TrainConfig, train};
+
+    #[test]
+    fn evaluation_with_baseline_and_frame_comparison_is_finite_and_consistent() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let world = dir.path().join("world.safetensors");
+        let canonical = dir.path().join("canonical.safetensors");
+        train(&data, &world, &tiny_config(15), &RunOptions::default()).unwrap();
+        let canonical_config = TrainConfig {
+            displacement_frame: DisplacementFrame::Canonical,
+            ..tiny_config(15)
+        };
+        train(&data, &canonical, &canonical_config, &RunOptions::default()).unwrap();
+        let baseline_dir = dir.path().join("baseline");
+        let baseline_config = BaselineConfig {
+            max_epochs: 3,
+            ..BaselineConfig::from_train_config(&tiny_config(3))
+        };
+        let manifest = train_baseline(&data, &baseline_dir, &baseline_config).unwrap();
+        assert_eq!(manifest.materials.len(), 2);
+        // 18 own poses -> 16 train, 2 dev; GarMatNet trains on 65, so 65 / 16 -> 4 passes.
+        assert!(
+            manifest.materials.iter().all(|m| m.replicate == 4),
+            "{manifest:?}"
+        );
+
+        let out = dir.path().join("eval");
+        let config = EvalConfig {
+            timing_repeats: 2,
+            timing_batch: 4,
+            ..EvalConfig::default()
+        };
+        let inputs = EvalInputs {
+            data_dir: data.clone(),
+            model: world.clone(),
+            baseline: Some(baseline_dir),
+            compare_model: Some(canonical),
+            out_dir: out.clone(),
+        };
+        let report = evaluate(&inputs, &config).unwrap();
+        let b = report.baseline.unwrap();
+        for e in [report.garmatnet, b, report.garmatnet_all_test] {
+            for v in [
+                e.fitting_mm,
+                e.local_mm,
+                e.whole_mm,
+                e.whole_p95_mm,
+                e.whole_max_mm,
+            ] {
+                assert!(v.is_finite() && v > 0.0, "{e:?}");
+            }
+            // The triangle inequality holds per vertex, hence for the means.
+            assert!(e.whole_mm <= e.fitting_mm + e.local_mm + 1e-9, "{e:?}");
+            assert!(e.whole_mm <= e.whole_p95_mm.max(e.whole_max_mm));
+            // Regression: coordinates that never move (D_local at fixed smoother corners) got
+            // std 1 m (the old zero-variance rule), and half-metre spikes.
+            assert!(e.whole_max_mm < 100.0, "spiky prediction: {e:?}");
+        }
+        // 2 target materials x held-out frames 0 and 10.
+        assert_eq!(report.garmatnet.samples, 4);
+        assert_eq!(b.samples, 4);
+        assert_eq!(report.per_sample.len(), 4);
+        for r in &report.per_sample {
+            let g = r.garmatnet;
+            assert!(g.whole_mm <= g.fitting_mm + g.local_mm + 1e-9);
+            assert!(r.baseline.is_some());
+        }
+        assert!(report.garmatnet_all_test.samples > report.garmatnet.samples);
+        let p = report.penetration;
+        assert!(p.inside_fraction_after <= p.inside_fraction_before);
+        assert!(report.timing.batch1_ms_per_frame > 0.0);
+        assert!(report.sizes.garmatnet_mb > 0.0 && report.sizes.baseline_mb.unwrap() > 0.0);
+        let c = report.frame_comparison.unwrap();
+        assert_eq!(
+            (c.primary.0.as_str(), c.other.0.as_str()),
+            ("world", "canonical")
+        );
+        for f in ["report.json", "report.md"] {
+            assert!(out.join(f).exists(), "{f} missing");
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(out.join("report.md"))
+                .unwrap()
+                .permissions()
+                .mode();
+            assert_eq!(mode & 0o777, 0o644, "reports get ordinary permissions");
+        }
+        assert!(
+            report
+                .files
+                .iter()
+                .filter(|f| f.starts_with("per_pose_"))
+                .count()
+                == 2
+        );
+        assert!(report.files.iter().any(|f| f.starts_with("heatmap_")));
+        for f in &report.files {
+            assert!(out.join(f).exists(), "{f} missing");
+        }
+        let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(md.contains("Baseline (TailorNet-style)") && md.contains("Winner"));
+    }
+
+    #[test]
+    fn evaluating_without_the_split_file_is_an_error() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let model = dir.path().join("m.safetensors");
+        train(&data, &model, &tiny_config(1), &RunOptions::default()).unwrap();
+        std::fs::remove_file(crate::trainer::split_path(&model)).unwrap();
+        let inputs = EvalInputs {
+            data_dir: data,
+            model,
+            baseline: None,
+            compare_model: None,
+            out_dir: dir.path().join("eval"),
+        };
+        assert!(evaluate(&inputs, &EvalConfig::default()).is_err());
+    }
+}

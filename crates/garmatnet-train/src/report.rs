@@ -1,0 +1,304 @@
+//! The evaluation report: `report.json` (machine-readable) and `report.md` (tables), all
+//! errors in millimetres.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Mean per-vertex Euclidean errors of one part of the pipeline (millimetres).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PartErrors {
+    /// |predicted smooth garment − true smooth garment| (generally-fitting net).
+    pub fitting_mm: f64,
+    /// |predicted D_local − true D_local| (locally-detailed net).
+    pub local_mm: f64,
+    /// |predicted garment − simulated garment| (whole pipeline).
+    pub whole_mm: f64,
+}
+
+/// Errors over a set of test samples (the paper's Table 2 plus spread).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ErrorStats {
+    /// Mean per-vertex error of the generally-fitting net (mm).
+    pub fitting_mm: f64,
+    /// Mean per-vertex error of the locally-detailed net (mm).
+    pub local_mm: f64,
+    /// Mean per-vertex error of the whole pipeline (mm).
+    pub whole_mm: f64,
+    /// Largest per-vertex whole error (mm).
+    pub whole_max_mm: f64,
+    /// 95th percentile of per-vertex whole errors (mm).
+    pub whole_p95_mm: f64,
+    /// Samples evaluated.
+    pub samples: usize,
+}
+
+/// One test sample's errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleErrors {
+    /// The material's name.
+    pub material: String,
+    /// The pose index.
+    pub pose: usize,
+    /// The pose's frame in its source sequence.
+    pub frame: usize,
+    /// GarMatNet's errors.
+    pub garmatnet: PartErrors,
+    /// The baseline's errors, when a baseline for this material was given.
+    pub baseline: Option<PartErrors>,
+}
+
+/// Body penetration of GarMatNet's predictions before and after the push-out post-process.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PenetrationStats {
+    /// The push-out clearance ε (mm).
+    pub epsilon_mm: f64,
+    /// Mean fraction of garment vertices inside the body before push-out.
+    pub inside_fraction_before: f64,
+    /// The same after push-out.
+    pub inside_fraction_after: f64,
+    /// Deepest penetration before push-out (mm).
+    pub max_depth_before_mm: f64,
+    /// Deepest penetration after push-out (mm).
+    pub max_depth_after_mm: f64,
+    /// Mean per-vertex whole error after push-out (mm).
+    pub whole_mm_after: f64,
+}
+
+/// Inference speed of GarMatNet (both nets, garment assembly included).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Timing {
+    /// The device.
+    pub device: String,
+    /// Milliseconds per frame at batch size 1 (median of the repeats).
+    pub batch1_ms_per_frame: f64,
+    /// Milliseconds per frame in one batched call.
+    pub batched_ms_per_frame: f64,
+    /// The batch size of the batched timing.
+    pub batch_size: usize,
+}
+
+/// Model sizes on disk (MB = 10^6 bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ModelSizes {
+    /// The GarMatNet model file.
+    pub garmatnet_mb: f64,
+    /// The baseline directory (all materials), when given.
+    pub baseline_mb: Option<f64>,
+}
+
+/// Which displacement frame did better when two models were evaluated on the same split.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameComparison {
+    /// `(frame, whole error in mm)` of the primary model.
+    pub primary: (String, f64),
+    /// `(frame, whole error in mm)` of the other model.
+    pub other: (String, f64),
+    /// The frame with the smaller whole error.
+    pub winner: String,
+}
+
+/// Everything [`crate::evaluate`] measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// The dataset fingerprint.
+    pub dataset_hash: String,
+    /// The model's displacement frame.
+    pub displacement_frame: String,
+    /// The target (unseen) materials.
+    pub test_materials: Vec<String>,
+    /// The number of held-out poses.
+    pub held_out_poses: usize,
+    /// GarMatNet on the comparison set: target materials × held-out poses (Table 2).
+    pub garmatnet: ErrorStats,
+    /// The baseline on the same samples (Table 2), when given.
+    pub baseline: Option<ErrorStats>,
+    /// GarMatNet on the whole test set (also every material at the held-out poses).
+    pub garmatnet_all_test: ErrorStats,
+    /// Per (material, pose) errors on the comparison set (Figs. 7–8).
+    pub per_sample: Vec<SampleErrors>,
+    /// Push-out statistics over the whole test set.
+    pub penetration: PenetrationStats,
+    /// Inference speed.
+    pub timing: Timing,
+    /// Sizes on disk.
+    pub sizes: ModelSizes,
+    /// World vs canonical frame, when a second model was given.
+    pub frame_comparison: Option<FrameComparison>,
+    /// Files written next to the report (plots, heat maps, PLY), relative to it.
+    pub files: Vec<String>,
+}
+
+impl Report {
+    /// Writes `report.json` and `report.md` into `out_dir`, atomically.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (I/O) if a file cannot be written.
+    pub fn write(&self, out_dir: &Path) -> Result<()> {
+        let json = serde_json::to_vec_pretty(self)
+            .map_err(|e| Error::InvalidConfig(format!("cannot encode the report: {e}")))?;
+        garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
+        garmatnet_core::write_bytes_atomic(
+            out_dir.join("report.md"),
+            self.to_markdown().as_bytes(),
+        )?;
+        for f in self
+            .files
+            .iter()
+            .map(String::as_str)
+            .chain(["report.json", "report.md"])
+        {
+            make_readable(&out_dir.join(f));
+        }
+        Ok(())
+    }
+
+    /// The report as Markdown tables.
+    #[must_use]
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# GarMatNet evaluation\n");
+        let _ = writeln!(
+            s,
+            "Dataset `{}`, displacement frame `{}`, test materials: {}; {} held-out poses.\n",
+            self.dataset_hash,
+            self.displacement_frame,
+            self.test_materials.join(", "),
+            self.held_out_poses
+        );
+        let _ = writeln!(
+            s,
+            "## Mean per-vertex error (mm), target materials × held-out poses (Table 2)\n"
+        );
+        let _ = writeln!(
+            s,
+            "| Method | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+        let mut row = |name: &str, e: &ErrorStats| {
+            let _ = writeln!(
+                s,
+                "| {name} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                e.samples, e.fitting_mm, e.local_mm, e.whole_mm, e.whole_p95_mm, e.whole_max_mm
+            );
+        };
+        row("GarMatNet", &self.garmatnet);
+        if let Some(b) = &self.baseline {
+            row("Baseline (TailorNet-style)", b);
+        }
+        row("GarMatNet, whole test set", &self.garmatnet_all_test);
+        let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");
+        let _ = writeln!(s, "| Material | Pose | Frame | GarMatNet | Baseline |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        for r in &self.per_sample {
+            let b = r
+                .baseline
+                .map_or_else(|| "–".to_owned(), |b| format!("{:.2}", b.whole_mm));
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.2} | {b} |",
+                r.material, r.pose, r.frame, r.garmatnet.whole_mm
+            );
+        }
+        let p = &self.penetration;
+        let _ = writeln!(
+            s,
+            "\n## Body penetration (push-out ε = {:.1} mm)\n",
+            p.epsilon_mm
+        );
+        let _ = writeln!(s, "| | Before | After |\n|---|---:|---:|");
+        let _ = writeln!(
+            s,
+            "| Vertices inside the body | {:.2} % | {:.2} % |",
+            100.0 * p.inside_fraction_before,
+            100.0 * p.inside_fraction_after
+        );
+        let _ = writeln!(
+            s,
+            "| Deepest penetration (mm) | {:.2} | {:.2} |",
+            p.max_depth_before_mm, p.max_depth_after_mm
+        );
+        let _ = writeln!(
+            s,
+            "| Whole error (mm) | {:.2} | {:.2} |",
+            self.garmatnet_all_test.whole_mm, p.whole_mm_after
+        );
+        let t = &self.timing;
+        let _ = writeln!(s, "\n## Speed and size\n");
+        let _ = writeln!(s, "| | Value |\n|---|---:|");
+        let _ = writeln!(s, "| Device | {} |", t.device);
+        let _ = writeln!(s, "| ms/frame, batch 1 | {:.2} |", t.batch1_ms_per_frame);
+        let _ = writeln!(
+            s,
+            "| ms/frame, batch {} | {:.3} |",
+            t.batch_size, t.batched_ms_per_frame
+        );
+        let _ = writeln!(
+            s,
+            "| GarMatNet model (MB) | {:.2} |",
+            self.sizes.garmatnet_mb
+        );
+        if let Some(b) = self.sizes.baseline_mb {
+            let _ = writeln!(s, "| Baseline, all materials (MB) | {b:.2} |");
+        }
+        if let Some(c) = &self.frame_comparison {
+            let _ = writeln!(s, "\n## Displacement frame\n");
+            let _ = writeln!(s, "| Frame | Whole error (mm) |\n|---|---:|");
+            let _ = writeln!(s, "| {} | {:.2} |", c.primary.0, c.primary.1);
+            let _ = writeln!(s, "| {} | {:.2} |", c.other.0, c.other.1);
+            let _ = writeln!(s, "\nWinner: **{}**.", c.winner);
+        }
+        if !self.files.is_empty() {
+            let _ = writeln!(s, "\n## Figures\n");
+            for f in &self.files {
+                if f.ends_with(".png") {
+                    let _ = writeln!(s, "![{f}]({f})");
+                } else {
+                    let _ = writeln!(s, "- [{f}]({f})");
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Gives a finished output file ordinary permissions (0644 on Unix): the atomic writers
+/// create their temporary files 0600, which would hide reports and splits from other users.
+pub(crate) fn make_readable(path: &Path) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o644));
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+/// Mean, max and 95th percentile of per-vertex errors (metres in, millimetres out).
+pub(crate) fn spread_mm(errors: &mut [f64]) -> (f64, f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0, 0.0);
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    errors.sort_by(f64::total_cmp);
+    let p95 = errors[((errors.len() - 1) as f64 * 0.95).round() as usize];
+    let max = errors[errors.len() - 1];
+    (mean * 1e3, p95 * 1e3, max * 1e3)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_of_known_values() {
+        let mut v: Vec<f64> = (1..=100).map(|i| f64::from(i) * 1e-3).collect();
+        let (mean, p95, max) = spread_mm(&mut v);
+        approx::assert_relative_eq!(mean, 50.5, epsilon = 1e-9);
+        approx::assert_relative_eq!(max, 100.0, epsilon = 1e-9);
+        assert!((94.0..=96.0).contains(&p95), "{p95}");
+    }
+}

@@ -1,0 +1,338 @@
+//! The paper's data split (§4.1): unseen materials and unseen poses go to test, the rest is
+//! split 90/10 into train and dev with a seeded shuffle.
+//!
+//! The split is written next to the model (`{model stem}.split.json`) and evaluation reads it
+//! back, so a test sample can never have been trained on.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use garmatnet_core::{PAPER_TEST_MATERIALS, SplitMix64};
+use garmatnet_sim::DatasetSpec;
+use serde::{Deserialize, Serialize};
+
+use crate::dataset_loader::SampleKey;
+use crate::error::{Error, Result};
+
+/// How to split a dataset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SplitConfig {
+    /// The unseen target materials: all their samples are test samples.
+    pub test_materials: Vec<String>,
+    /// Poses whose source frame index is a multiple of this are held out (test) for every
+    /// material; the paper uses 10.
+    pub held_out_frame_every: usize,
+    /// The dev fraction of the remaining samples (paper: 0.1).
+    pub dev_fraction: f64,
+    /// The seed of the train/dev shuffle.
+    pub seed: u64,
+}
+
+impl Default for SplitConfig {
+    fn default() -> Self {
+        Self {
+            test_materials: PAPER_TEST_MATERIALS
+                .iter()
+                .map(|s| (*s).to_owned())
+                .collect(),
+            held_out_frame_every: 10,
+            dev_fraction: 0.1,
+            seed: 42,
+        }
+    }
+}
+
+/// A concrete split of one dataset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Split {
+    /// The fingerprint of the dataset it was made for.
+    pub dataset_hash: String,
+    /// The configuration it was made with.
+    pub config: SplitConfig,
+    /// Indices of the target materials, in `config.test_materials` order.
+    pub test_materials: Vec<usize>,
+    /// Indices of the held-out poses.
+    pub held_out_poses: Vec<usize>,
+    /// Training samples, sorted.
+    pub train: Vec<SampleKey>,
+    /// Development (early-stopping) samples, sorted.
+    pub dev: Vec<SampleKey>,
+    /// Test samples, sorted.
+    pub test: Vec<SampleKey>,
+}
+
+impl Split {
+    /// Splits `samples` of the dataset described by `spec`.
+    ///
+    /// # Errors
+    /// [`Error::UnknownMaterials`] if a target material is not in the dataset;
+    /// [`Error::InvalidConfig`] for a dev fraction outside (0, 1), `held_out_frame_every = 0`,
+    /// or a split that leaves train, dev or test empty.
+    pub fn new(
+        spec: &DatasetSpec,
+        samples: &[SampleKey],
+        dataset_hash: &str,
+        config: &SplitConfig,
+    ) -> Result<Self> {
+        if !(config.dev_fraction > 0.0 && config.dev_fraction < 1.0) {
+            return Err(Error::InvalidConfig(format!(
+                "split.dev_fraction = {} must lie strictly between 0 and 1",
+                config.dev_fraction
+            )));
+        }
+        if config.held_out_frame_every == 0 {
+            return Err(Error::InvalidConfig(
+                "split.held_out_frame_every must be positive".into(),
+            ));
+        }
+        let test_materials = material_indices(spec, &config.test_materials)?;
+        let held_out_poses: Vec<usize> = spec
+            .frames
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| *f % config.held_out_frame_every == 0)
+            .map(|(p, _)| p)
+            .collect();
+        let is_test = |k: &SampleKey| {
+            test_materials.contains(&k.material) || held_out_poses.binary_search(&k.pose).is_ok()
+        };
+        let mut test: Vec<SampleKey> = samples.iter().copied().filter(is_test).collect();
+        let mut rest: Vec<SampleKey> = samples.iter().copied().filter(|k| !is_test(k)).collect();
+        rest.sort();
+        SplitMix64::new(config.seed).shuffle(&mut rest);
+        let dev_count = ((rest.len() as f64 * config.dev_fraction).round() as usize).max(1);
+        if rest.len() < 2 || test.is_empty() {
+            return Err(Error::InvalidConfig(format!(
+                "the split leaves {} training/dev and {} test samples; both need samples \
+                 (add materials or poses, or choose other test materials)",
+                rest.len(),
+                test.len()
+            )));
+        }
+        let mut dev = rest.split_off(rest.len() - dev_count);
+        let mut train = rest;
+        train.sort();
+        dev.sort();
+        test.sort();
+        Ok(Self {
+            dataset_hash: dataset_hash.to_owned(),
+            config: config.clone(),
+            test_materials,
+            held_out_poses,
+            train,
+            dev,
+            test,
+        })
+    }
+
+    /// Test samples of a target material at a held-out pose: the set the per-material
+    /// baseline can be compared on (the paper's 4 materials × 73 poses).
+    #[must_use]
+    pub fn comparison_test(&self) -> Vec<SampleKey> {
+        self.test
+            .iter()
+            .copied()
+            .filter(|k| {
+                self.test_materials.contains(&k.material)
+                    && self.held_out_poses.binary_search(&k.pose).is_ok()
+            })
+            .collect()
+    }
+
+    /// Checks that no test sample, target material or held-out pose appears in train or dev,
+    /// and that train and dev do not overlap.
+    ///
+    /// # Errors
+    /// [`Error::Split`] naming the leaking sample.
+    pub fn check_no_leak(&self, path: &Path) -> Result<()> {
+        let test: BTreeSet<_> = self.test.iter().collect();
+        let dev: BTreeSet<_> = self.dev.iter().collect();
+        for (set, name) in [(&self.train, "train"), (&self.dev, "dev")] {
+            for k in set {
+                let leak = test.contains(k)
+                    || self.test_materials.contains(&k.material)
+                    || self.held_out_poses.binary_search(&k.pose).is_ok()
+                    || (name == "train" && dev.contains(k));
+                if leak {
+                    return Err(Error::Split {
+                        path: path.to_owned(),
+                        message: format!(
+                            "{name} sample (material {}, pose {}) belongs to the test set",
+                            k.material, k.pose
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the split as JSON, atomically.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (I/O) if the file cannot be written.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let bytes = serde_json::to_vec_pretty(self)
+            .map_err(|e| Error::InvalidConfig(format!("cannot serialise the split: {e}")))?;
+        garmatnet_core::write_bytes_atomic(path, &bytes)?;
+        crate::report::make_readable(path);
+        Ok(())
+    }
+
+    /// Reads a split and checks it against the dataset it will be used with.
+    ///
+    /// # Errors
+    /// [`Error::Io`] if it cannot be read; [`Error::Split`] if it is malformed, leaks, or
+    /// was made for another dataset (`dataset_hash` differs).
+    pub fn read(path: &Path, dataset_hash: &str) -> Result<Self> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let split: Split = serde_json::from_slice(&bytes).map_err(|e| Error::Split {
+            path: path.to_owned(),
+            message: format!("not a split file: {e}"),
+        })?;
+        if split.dataset_hash != dataset_hash {
+            return Err(Error::Split {
+                path: path.to_owned(),
+                message: format!(
+                    "it was made for dataset {} but this dataset is {dataset_hash}; evaluate on \
+                     the dataset the model was trained on",
+                    split.dataset_hash
+                ),
+            });
+        }
+        split.check_no_leak(path)?;
+        Ok(split)
+    }
+}
+
+/// Indices of `names` among the dataset's materials.
+///
+/// # Errors
+/// [`Error::UnknownMaterials`] listing the missing names and the available ones.
+pub fn material_indices(spec: &DatasetSpec, names: &[String]) -> Result<Vec<usize>> {
+    let mut out = Vec::new();
+    let mut missing = Vec::new();
+    for name in names {
+        match spec.materials.iter().position(|m| &m.name == name) {
+            Some(i) => out.push(i),
+            None => missing.push(name.clone()),
+        }
+    }
+    if missing.is_empty() && !out.is_empty() {
+        Ok(out)
+    } else {
+        Err(Error::UnknownMaterials {
+            missing,
+            available: spec.materials.iter().map(|m| m.name.clone()).collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use garmatnet_core::Pose;
+    use garmatnet_sim::{BodyInfo, MaterialEntry, SmoothingInfo, TemplateInfo};
+
+    fn spec(materials: usize, poses: usize) -> DatasetSpec {
+        DatasetSpec {
+            template: TemplateInfo {
+                resolution: "coarse".into(),
+                vertex_count: 3,
+                hash: "t".into(),
+            },
+            body: BodyInfo { name: "b".into() },
+            materials: (0..materials)
+                .map(|i| MaterialEntry {
+                    name: format!("M{i}"),
+                    omega: [1.0; 6],
+                    omega_normalized: [0.5; 6],
+                })
+                .collect(),
+            poses: vec![Pose::zero(); poses],
+            frames: (0..poses).map(|p| 3 * p).collect(),
+            solver: serde_json::Value::Null,
+            smoothing: SmoothingInfo {
+                lambda: 0.15,
+                iterations: 80,
+                weights: "uniform".into(),
+            },
+        }
+    }
+
+    fn all_keys(materials: usize, poses: usize) -> Vec<SampleKey> {
+        (0..materials)
+            .flat_map(|material| (0..poses).map(move |pose| SampleKey { material, pose }))
+            .collect()
+    }
+
+    fn config() -> SplitConfig {
+        SplitConfig {
+            test_materials: vec!["M1".into(), "M4".into()],
+            ..SplitConfig::default()
+        }
+    }
+
+    #[test]
+    fn test_set_takes_target_materials_and_held_out_frames_and_nothing_leaks() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        let split = Split::new(&spec, &keys, "h", &config()).unwrap();
+        // Frames 3p divisible by 10 <=> p divisible by 10.
+        assert_eq!(split.held_out_poses, vec![0, 10, 20, 30]);
+        assert_eq!(split.test_materials, vec![1, 4]);
+        for k in &keys {
+            let expect_test = k.material == 1 || k.material == 4 || k.pose % 10 == 0;
+            assert_eq!(split.test.contains(k), expect_test, "{k:?}");
+        }
+        split.check_no_leak(Path::new("s.json")).unwrap();
+        assert_eq!(
+            split.train.len() + split.dev.len() + split.test.len(),
+            keys.len()
+        );
+        let rest = (5 * 36) as f64;
+        assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
+        assert_eq!(split.comparison_test().len(), 2 * 4);
+    }
+
+    #[test]
+    fn split_is_deterministic_per_seed() {
+        let (spec, keys) = (spec(6, 30), all_keys(6, 30));
+        let a = Split::new(&spec, &keys, "h", &config()).unwrap();
+        let b = Split::new(&spec, &keys, "h", &config()).unwrap();
+        assert_eq!(a, b);
+        let other = SplitConfig {
+            seed: 7,
+            ..config()
+        };
+        let c = Split::new(&spec, &keys, "h", &other).unwrap();
+        assert_ne!(a.dev, c.dev, "another seed must shuffle differently");
+        assert_eq!(a.test, c.test, "the test set does not depend on the seed");
+    }
+
+    #[test]
+    fn absent_target_materials_list_the_available_ones() {
+        let (spec, keys) = (spec(3, 20), all_keys(3, 20));
+        let err = Split::new(&spec, &keys, "h", &SplitConfig::default()).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, Error::UnknownMaterials { .. }), "{text}");
+        assert!(text.contains("Cashmere") && text.contains("M2"), "{text}");
+    }
+
+    #[test]
+    fn a_tampered_split_file_is_refused() {
+        let (spec, keys) = (spec(6, 30), all_keys(6, 30));
+        let mut split = Split::new(&spec, &keys, "h", &config()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("split.json");
+        split.write(&path).unwrap();
+        assert_eq!(Split::read(&path, "h").unwrap(), split);
+        assert!(matches!(
+            Split::read(&path, "other"),
+            Err(Error::Split { .. })
+        ));
+        split.train.push(split.test[0]);
+        split.write(&path).unwrap();
+        assert!(matches!(Split::read(&path, "h"), Err(Error::Split { .. })));
+    }
+}

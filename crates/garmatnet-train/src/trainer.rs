@@ -1,0 +1,549 @@
+//! Training GarMatNet (paper §3.4–3.5, §4.1): Adam on the MSE of normalised outputs
+//! (eqs. 6–7), mini-batches, early stopping on the dev loss with per-net patience, resumable
+//! checkpoints and a model file in the model crate's format.
+//!
+//! The generally-fitting net is trained first, then the locally-detailed net; each keeps the
+//! weights of its best dev epoch; the loop itself is [`crate::training_loop`]. A resumed run
+//! repeats an uninterrupted one on the CPU. Burn's
+//! random state is global to the process: two trainings running in parallel threads of one
+//! process are not reproducible (separate processes are).
+
+use std::path::{Path, PathBuf};
+
+use burn::prelude::*;
+use garmatnet_core::DisplacementFrame;
+use garmatnet_model::{
+    GarMatNetConfig, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance, select_device,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
+use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
+use crate::error::{Error, Result};
+use crate::split::{Split, SplitConfig};
+use crate::training_loop::{
+    LoopSettings, NetSets, Outcome, Part, fit_net, fit_normalizer, initial_progress, progress_bar,
+};
+
+/// Everything that defines a GarMatNet training run (CLI options map onto these fields).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TrainConfig {
+    /// Seed of the weights, the split's shuffle and the epoch shuffles.
+    pub seed: u64,
+    /// Adam's learning rate.
+    pub learning_rate: f64,
+    /// Mini-batch size.
+    pub batch_size: usize,
+    /// The most epochs per net.
+    pub max_epochs: usize,
+    /// Early-stopping patience of the generally-fitting net (paper: 50).
+    pub patience_fitting: usize,
+    /// Early-stopping patience of the locally-detailed net (paper: 200).
+    pub patience_local: usize,
+    /// Width of the pose branch.
+    pub pose_hidden: usize,
+    /// Width of the material branch.
+    pub material_hidden: usize,
+    /// Width of the merged hidden layer.
+    pub hidden: usize,
+    /// Dropout probability.
+    pub dropout: f64,
+    /// The weight controller α (paper §3.6).
+    pub alpha: f64,
+    /// The frame of the predicted displacements.
+    pub displacement_frame: DisplacementFrame,
+    /// The data split.
+    pub split: SplitConfig,
+    /// Accept a dataset with missing samples (train on what exists).
+    pub allow_incomplete_dataset: bool,
+    /// Compute device: `cpu`, `gpu` or `auto`.
+    pub device: String,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            seed: 42,
+            learning_rate: 1e-3,
+            batch_size: 32,
+            max_epochs: 2000,
+            patience_fitting: 50,
+            patience_local: 200,
+            pose_hidden: 512,
+            material_hidden: 64,
+            hidden: 512,
+            dropout: 0.1,
+            alpha: 0.5,
+            displacement_frame: DisplacementFrame::World,
+            split: SplitConfig::default(),
+            allow_incomplete_dataset: false,
+            device: "cpu".into(),
+            quiet: false,
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Checks the loop settings (the net's own settings are checked by the model crate).
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the field.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
+            return Err(Error::InvalidConfig(format!(
+                "learning_rate = {} must be a positive number",
+                self.learning_rate
+            )));
+        }
+        if self.batch_size == 0 || self.max_epochs == 0 {
+            return Err(Error::InvalidConfig(
+                "batch_size and max_epochs must be positive".into(),
+            ));
+        }
+        self.net_config(1).validate()?;
+        Ok(())
+    }
+
+    /// The network configuration for a template of `vertex_count` vertices.
+    #[must_use]
+    pub fn net_config(&self, vertex_count: usize) -> GarMatNetConfig {
+        GarMatNetConfig::new(
+            vertex_count,
+            self.pose_hidden,
+            self.material_hidden,
+            self.hidden,
+        )
+        .with_dropout(self.dropout)
+        .with_alpha(self.alpha)
+        .with_displacement_frame(self.displacement_frame)
+    }
+
+    /// A fingerprint of everything that changes the result (not `quiet`/`device`).
+    fn fingerprint(&self, dataset_hash: &str) -> String {
+        let mut c = self.clone();
+        c.quiet = false;
+        c.device = String::new();
+        let mut h = Fnv1a::default();
+        h.write(&serde_json::to_vec(&c).unwrap_or_default());
+        h.write(dataset_hash.as_bytes());
+        format!("{:016x}", h.0)
+    }
+}
+
+/// How to run a training: resume, or stop early leaving a checkpoint.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RunOptions {
+    /// The command line, recorded in the model's provenance (the CLI passes its arguments).
+    pub command: String,
+    /// Continue from the checkpoint next to the model, if there is one.
+    pub resume: bool,
+    /// Stop after this many epochs (both nets together) in this run, leaving a checkpoint to
+    /// resume from (time-boxed runs); `None` trains to the end.
+    pub stop_after_epochs: Option<usize>,
+}
+
+/// How one net's training went.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NetSummary {
+    /// Epochs trained.
+    pub epochs: usize,
+    /// The epoch whose weights were kept.
+    pub best_epoch: usize,
+    /// The kept weights' dev loss (MSE of normalised outputs).
+    pub best_dev_mse: f64,
+    /// The untrained net's dev loss.
+    pub initial_dev_mse: f64,
+    /// The last epoch's training loss.
+    pub last_train_mse: f64,
+    /// Mean wall-clock seconds per epoch.
+    pub seconds_per_epoch: f64,
+}
+
+impl From<&NetProgress> for NetSummary {
+    fn from(p: &NetProgress) -> Self {
+        Self {
+            epochs: p.epoch,
+            best_epoch: p.best_epoch,
+            best_dev_mse: p.best_dev,
+            initial_dev_mse: p.initial_dev,
+            last_train_mse: p.last_train,
+            seconds_per_epoch: p.seconds / p.epoch.max(1) as f64,
+        }
+    }
+}
+
+/// What [`train`] did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainSummary {
+    /// Whether both nets finished and the model file was written.
+    pub finished: bool,
+    /// The model file (written only when `finished`).
+    pub model_path: PathBuf,
+    /// The split file.
+    pub split_path: PathBuf,
+    /// The checkpoint directory (removed when `finished`).
+    pub checkpoint_dir: PathBuf,
+    /// Where a resumed run started: the phase and the epochs it had completed.
+    pub resumed_from: Option<(Phase, usize)>,
+    /// The generally-fitting net, once finished.
+    pub fitting: Option<NetSummary>,
+    /// The locally-detailed net, once finished.
+    pub local: Option<NetSummary>,
+    /// Training, dev and test sample counts.
+    pub samples: [usize; 3],
+}
+
+/// The split file of the model at `model_path`: `{stem}.split.json` next to it.
+#[must_use]
+pub fn split_path(model_path: &Path) -> PathBuf {
+    sibling(model_path, "split.json")
+}
+
+/// Trains GarMatNet on the dataset in `data_dir` and writes the model to `model_path`, its
+/// split to [`split_path`] and checkpoints to `{stem}.checkpoint/` (removed at the end).
+///
+/// # Errors
+/// [`Error::InvalidConfig`] for bad settings; dataset errors naming the sample;
+/// [`Error::UnknownMaterials`] for absent target materials; [`Error::Checkpoint`] for a
+/// checkpoint of another configuration; [`Error::Diverged`] if the loss becomes NaN,
+/// infinite or explodes (no model is written, the last good checkpoint is kept).
+pub fn train(
+    data_dir: &Path,
+    model_path: &Path,
+    config: &TrainConfig,
+    options: &RunOptions,
+) -> Result<TrainSummary> {
+    config.validate()?;
+    let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
+    let split = Split::new(
+        data.spec(),
+        &data.keys(),
+        data.dataset_hash(),
+        &config.split,
+    )?;
+    let split_file = split_path(model_path);
+    split.check_no_leak(&split_file)?;
+    let device = select_device(&config.device)?;
+    let n = data.vertex_count();
+    let net_config = config.net_config(n);
+    net_config.validate()?;
+    let frame = config.displacement_frame;
+    let train_set = data.load(&split.train, frame)?;
+    let dev_set = data.load(&split.dev, frame)?;
+    let fitting_norm = fit_normalizer(&train_set.d_fitting, 3 * n)?;
+    let local_norm = fit_normalizer(&train_set.d_local, 3 * n)?;
+
+    let checkpoint = CheckpointDir::for_model(model_path);
+    let fingerprint = config.fingerprint(data.dataset_hash());
+    let saved = if options.resume {
+        checkpoint.read_state()?
+    } else {
+        checkpoint.remove();
+        None
+    };
+    if let Some(s) = &saved
+        && s.fingerprint != fingerprint
+    {
+        return Err(Error::Checkpoint {
+            path: checkpoint.path().to_owned(),
+            message: "it was written with another configuration or dataset; delete it or \
+                      train with the original settings"
+                .into(),
+        });
+    }
+    if let Some(dir) = split_file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    split.write(&split_file)?;
+
+    let progress = progress_bar(config.max_epochs, config.quiet);
+    let ad = device.clone().autodiff();
+    let mut budget = options.stop_after_epochs;
+    let mut summary = TrainSummary {
+        finished: false,
+        model_path: model_path.to_owned(),
+        split_path: split_file.clone(),
+        checkpoint_dir: checkpoint.path().to_owned(),
+        resumed_from: saved.as_ref().map(|s| (s.phase, s.progress.epoch)),
+        fitting: None,
+        local: None,
+        samples: [split.train.len(), split.dev.len(), split.test.len()],
+    };
+    let settings = |phase: Phase, patience| LoopSettings {
+        name: phase.name().to_owned(),
+        learning_rate: config.learning_rate,
+        batch_size: config.batch_size,
+        max_epochs: config.max_epochs,
+        patience,
+        replicate: 1,
+        seed: config.seed ^ (phase as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+    };
+
+    // The fitting net: finished in an earlier run, resumed, or trained from scratch.
+    let fitting_state = |state: Option<CheckpointState>| {
+        CheckpointState {
+            version: CHECKPOINT_VERSION,
+            fingerprint: fingerprint.clone(),
+            phase: Phase::Fitting,
+            fitting_done: None,
+            progress: initial_progress(0),
+            current_file: String::new(),
+            best_file: String::new(),
+            optimizer_file: String::new(),
+        }
+        .merge(state)
+    };
+    ad.seed(config.seed);
+    let fresh_fitting = net_config.init(&ad);
+    let (fitting_net, fitting_progress) = match &saved {
+        Some(s) if s.phase == Phase::Local => {
+            let done = s.fitting_done.clone().ok_or_else(|| Error::Checkpoint {
+                path: checkpoint.path().to_owned(),
+                message: "local phase without the fitting net's record".into(),
+            })?;
+            (checkpoint.load_fitting_final(fresh_fitting)?, done)
+        }
+        _ => {
+            let sets = NetSets::new(&train_set, &dev_set, Part::Fitting, &fitting_norm, &ad);
+            let mut state = fitting_state(saved.clone().filter(|s| s.phase == Phase::Fitting));
+            let outcome = fit_net(
+                fresh_fitting,
+                &sets,
+                &settings(Phase::Fitting, config.patience_fitting),
+                Some((&checkpoint, &mut state)),
+                &mut budget,
+                &progress,
+            )?;
+            match outcome {
+                Outcome::Done(net, p) => {
+                    checkpoint.save_fitting_final(&net)?;
+                    (net, p)
+                }
+                Outcome::Paused => return Ok(summary),
+            }
+        }
+    };
+    summary.fitting = Some(NetSummary::from(&fitting_progress));
+
+    ad.seed(config.seed ^ 1);
+    let fresh_local = net_config.init(&ad);
+    let mut local_state = CheckpointState {
+        phase: Phase::Local,
+        fitting_done: Some(fitting_progress.clone()),
+        progress: initial_progress(0),
+        ..fitting_state(None)
+    }
+    .merge(saved.filter(|s| s.phase == Phase::Local));
+    let sets = NetSets::new(&train_set, &dev_set, Part::Local, &local_norm, &ad);
+    let outcome = fit_net(
+        fresh_local,
+        &sets,
+        &settings(Phase::Local, config.patience_local),
+        Some((&checkpoint, &mut local_state)),
+        &mut budget,
+        &progress,
+    )?;
+    let Outcome::Done(local_net, local_progress) = outcome else {
+        return Ok(summary);
+    };
+    progress.finish_and_clear();
+    summary.local = Some(NetSummary::from(&local_progress));
+
+    let provenance = TrainingProvenance {
+        dataset_hash: data.dataset_hash().to_owned(),
+        command: options.command.clone(),
+        seed: config.seed,
+        epochs: fitting_progress.epoch.max(local_progress.epoch),
+        losses: [
+            ("fitting_dev_mse".to_owned(), fitting_progress.best_dev),
+            ("local_dev_mse".to_owned(), local_progress.best_dev),
+            ("fitting_train_mse".to_owned(), fitting_progress.last_train),
+            ("local_train_mse".to_owned(), local_progress.last_train),
+        ]
+        .into_iter()
+        .collect(),
+        extra: serde_json::json!({
+            "dataset_path": data.dir(),
+            "split_file": split_file,
+            "train_config": config,
+            "fitting": NetSummary::from(&fitting_progress),
+            "local": NetSummary::from(&local_progress),
+        }),
+    };
+    let model = GarMatNetModel {
+        fitting: fitting_net.valid(),
+        local: local_net.valid(),
+        fitting_norm,
+        local_norm,
+        meta: ModelMeta {
+            template: TemplateInfo::of(data.garment()),
+            provenance,
+        },
+    };
+    model.save(model_path)?;
+    checkpoint.remove();
+    summary.finished = true;
+    Ok(summary)
+}
+
+impl CheckpointState {
+    /// `saved` when there is one (a resume), else `self` (a fresh start).
+    fn merge(self, saved: Option<CheckpointState>) -> Self {
+        saved.unwrap_or(self)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::test_util::{TARGETS, synthetic_dataset, training_lock};
+
+    /// A tiny, fast configuration for the synthetic datasets.
+    pub(crate) fn tiny_config(max_epochs: usize) -> TrainConfig {
+        TrainConfig {
+            learning_rate: 3e-3,
+            batch_size: 16,
+            max_epochs,
+            patience_fitting: 1000,
+            patience_local: 1000,
+            pose_hidden: 32,
+            material_hidden: 16,
+            hidden: 32,
+            dropout: 0.0,
+            split: SplitConfig {
+                test_materials: TARGETS.iter().map(|s| (*s).to_owned()).collect(),
+                ..SplitConfig::default()
+            },
+            quiet: true,
+            ..TrainConfig::default()
+        }
+    }
+
+    #[test]
+    fn training_lowers_the_dev_loss_and_writes_a_loadable_model() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let model_path = dir.path().join("out").join("model.safetensors");
+        let options = RunOptions {
+            command: "garmatnet train data --out model.safetensors".into(),
+            ..RunOptions::default()
+        };
+        let s = train(&data, &model_path, &tiny_config(25), &options).unwrap();
+        assert!(s.finished);
+        eprintln!(
+            "tiny: {:.1} ms per epoch (fitting), {} training samples",
+            1e3 * s.fitting.as_ref().unwrap().seconds_per_epoch,
+            s.samples[0]
+        );
+        for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
+            assert!(
+                net.best_dev_mse < 0.5 * net.initial_dev_mse,
+                "dev loss {} did not fall well below the untrained {}",
+                net.best_dev_mse,
+                net.initial_dev_mse
+            );
+        }
+        let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
+        assert_eq!(
+            model.vertex_count(),
+            TrainingDataset::open(&data, false).unwrap().vertex_count()
+        );
+        assert!(model.meta.provenance.losses["fitting_dev_mse"].is_finite());
+        assert_eq!(model.meta.provenance.command, options.command);
+        assert!(s.split_path.exists());
+        assert!(
+            !s.checkpoint_dir.exists(),
+            "a finished run removes its checkpoint"
+        );
+        // 4 non-target materials x 18 non-held-out poses, split 90/10.
+        assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
+        assert_eq!(s.samples[2], 6 * 20 - 4 * 18);
+    }
+
+    #[test]
+    fn resume_continues_from_the_checkpoint_and_repeats_an_uninterrupted_run() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let config = TrainConfig {
+            dropout: 0.1,
+            ..tiny_config(4)
+        };
+        let full_path = dir.path().join("full.safetensors");
+        let full = train(&data, &full_path, &config, &RunOptions::default()).unwrap();
+
+        // "Killed" after 3 epochs of the fitting net, then again 2 epochs into the local net.
+        let path = dir.path().join("resumed.safetensors");
+        let stop = |n| RunOptions {
+            resume: true,
+            stop_after_epochs: Some(n),
+            ..RunOptions::default()
+        };
+        let first = train(&data, &path, &config, &stop(3)).unwrap();
+        assert!(!first.finished && !path.exists(), "no model before the end");
+        let state = CheckpointDir::for_model(&path)
+            .read_state()
+            .unwrap()
+            .unwrap();
+        assert_eq!((state.phase, state.progress.epoch), (Phase::Fitting, 3));
+        let second = train(&data, &path, &config, &stop(3)).unwrap();
+        assert_eq!(second.resumed_from, Some((Phase::Fitting, 3)));
+        assert!(!second.finished);
+        let last = train(&data, &path, &config, &stop(100)).unwrap();
+        assert_eq!(last.resumed_from, Some((Phase::Local, 2)));
+        assert!(last.finished && path.exists());
+        let (a, b) = (full.fitting.unwrap(), last.fitting.unwrap());
+        assert_eq!(a.epochs, b.epochs);
+        assert_eq!(
+            a.best_dev_mse, b.best_dev_mse,
+            "resumed fitting net differs"
+        );
+        let (a, b) = (full.local.unwrap(), last.local.unwrap());
+        assert_eq!(a.best_dev_mse, b.best_dev_mse, "resumed local net differs");
+        assert_eq!(a.last_train_mse, b.last_train_mse);
+    }
+
+    #[test]
+    fn an_absurd_learning_rate_stops_with_a_divergence_error_and_no_model() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let path = dir.path().join("model.safetensors");
+        let config = TrainConfig {
+            learning_rate: 1e6,
+            ..tiny_config(20)
+        };
+        let err = train(&data, &path, &config, &RunOptions::default()).unwrap_err();
+        assert!(matches!(err, Error::Diverged { .. }), "{err}");
+        assert!(err.to_string().contains("lower the learning rate"), "{err}");
+        assert!(!path.exists(), "a diverged run must not write a model");
+    }
+
+    #[test]
+    fn a_checkpoint_of_another_configuration_is_refused() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let path = dir.path().join("model.safetensors");
+        let stop = RunOptions {
+            resume: true,
+            stop_after_epochs: Some(1),
+            ..RunOptions::default()
+        };
+        train(&data, &path, &tiny_config(5), &stop).unwrap();
+        let other = TrainConfig {
+            alpha: 0.3,
+            ..tiny_config(5)
+        };
+        let err = train(&data, &path, &other, &stop).unwrap_err();
+        assert!(matches!(err, Error::Checkpoint { .. }), "{err}");
+    }
+}
