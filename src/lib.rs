@@ -5,9 +5,16 @@
 //! the top level, each crate whole under its own name.
 
 pub use garmatnet_core as core;
+pub use garmatnet_model as model;
 pub use garmatnet_sim as sim;
+pub use garmatnet_train as train;
 
 pub use garmatnet_core::{
-    BodyAnchor, CapsuleBody, DisplacementFrame, Error, Garment, JointLimits, Material, Pose,
-    PosedBody, Resolution, SignedDistance, Skeleton, TriMesh,
+    BodyAnchor, CapsuleBody, DisplacementFrame, Garment, JointLimits, Material, Pose, PosedBody,
+    Resolution, SignedDistance, Skeleton, TriMesh,
 };
+pub use garmatnet_model::{
+    Detail, GarMatNetConfig, GarMatNetModel, GarmentMesh, Predictor, PushOut, Scene, select_device,
+};
+pub use garmatnet_sim::{DrapeSettings, DrapeSolver, GenerateConfig, generate_dataset};
+pub use garmatnet_train::{EvalConfig, TrainConfig, evaluate, train};

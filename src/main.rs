@@ -26,6 +26,14 @@ enum Command {
     /// Dataset tools.
     #[command(subcommand)]
     Dataset(cli::dataset::DatasetCommand),
+    /// Train a GarMatNet model (generally-fitting and locally-detailed nets).
+    Train(cli::train::TrainArgs),
+    /// Train the TailorNet-style baseline (one pose-only model per target material).
+    TrainBaseline(cli::train::TrainBaselineArgs),
+    /// Evaluate a model on its held-out split and write the report.
+    Eval(cli::eval::EvalArgs),
+    /// Reproduce Table 3: one model per weight controller α.
+    SweepAlpha(cli::train::SweepAlphaArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -36,5 +44,9 @@ fn main() -> anyhow::Result<()> {
         Command::Materials => cli::materials::run(),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Dataset(command) => cli::dataset::run(command),
+        Command::Train(args) => cli::train::run_train(args),
+        Command::TrainBaseline(args) => cli::train::run_train_baseline(args),
+        Command::Eval(args) => cli::eval::run(args),
+        Command::SweepAlpha(args) => cli::train::run_sweep_alpha(args),
     }
 }

@@ -1,0 +1,63 @@
+//! `garmatnet eval`: the paper's evaluation (Table 2, Figures 7–8 and 11–12).
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use garmatnet::train::{EvalConfig, EvalInputs, evaluate};
+
+/// Evaluate a model (and optionally the baseline) on its held-out test split.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The dataset directory the model was trained on.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// The model file (its `.split.json` must lie next to it).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// A baseline directory from `garmatnet train-baseline`.
+    #[arg(long)]
+    pub baseline: Option<PathBuf>,
+    /// A second model on the same split (e.g. the other displacement frame) to compare.
+    #[arg(long)]
+    pub compare: Option<PathBuf>,
+    /// Output directory: report.json, report.md, plots, heat maps, PLY.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// Compute device: cpu, gpu or auto.
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+    /// Skip the figures (plots, heat maps, PLY).
+    #[arg(long)]
+    pub no_figures: bool,
+}
+
+/// Runs the command.
+pub fn run(args: &EvalArgs) -> Result<()> {
+    let inputs = EvalInputs {
+        data_dir: args.data.clone(),
+        model: args.model.clone(),
+        baseline: args.baseline.clone(),
+        compare_model: args.compare.clone(),
+        out_dir: args.report.clone(),
+    };
+    let config = EvalConfig {
+        device: args.device.clone(),
+        figures: !args.no_figures,
+        ..EvalConfig::default()
+    };
+    let report = evaluate(&inputs, &config)?;
+    let g = &report.garmatnet;
+    println!(
+        "GarMatNet (target materials x held-out poses): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
+        g.fitting_mm, g.local_mm, g.whole_mm
+    );
+    if let Some(b) = &report.baseline {
+        println!(
+            "baseline:                                      fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
+            b.fitting_mm, b.local_mm, b.whole_mm
+        );
+    }
+    println!("report written to {}", args.report.display());
+    Ok(())
+}

@@ -1,0 +1,187 @@
+//! `garmatnet train`, `train-baseline` and `sweep-alpha`: training from a dataset directory.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use garmatnet::core::DisplacementFrame;
+use garmatnet::train::{
+    BaselineConfig, EvalConfig, PAPER_ALPHAS, RunOptions, TrainConfig, sweep_alpha, train,
+    train_baseline,
+};
+
+/// Options shared by every training command (defaults: the paper's protocol).
+#[derive(Debug, Args)]
+pub struct TrainOptions {
+    /// The dataset directory (from `garmatnet simulate`).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// A JSON `TrainConfig` to start from (missing fields take defaults; flags override it).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Compute device: cpu, gpu (build with --features wgpu) or auto.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Seed of the weights, the split and the shuffles.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Adam's learning rate.
+    #[arg(long)]
+    pub lr: Option<f64>,
+    /// Mini-batch size.
+    #[arg(long)]
+    pub batch_size: Option<usize>,
+    /// The most epochs per net.
+    #[arg(long)]
+    pub max_epochs: Option<usize>,
+    /// Early-stopping patience of the fitting net (paper: 50).
+    #[arg(long)]
+    pub patience_fitting: Option<usize>,
+    /// Early-stopping patience of the local net (paper: 200).
+    #[arg(long)]
+    pub patience_local: Option<usize>,
+    /// Hidden sizes: pose branch, material branch, merged layer (e.g. 512,64,512).
+    #[arg(long, value_delimiter = ',')]
+    pub hidden: Option<Vec<usize>>,
+    /// Dropout probability.
+    #[arg(long)]
+    pub dropout: Option<f64>,
+    /// The weight controller α ∈ [0, 1] (paper §3.6).
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Displacement frame: world or canonical.
+    #[arg(long)]
+    pub frame: Option<String>,
+    /// Train on an incomplete dataset (missing samples are skipped).
+    #[arg(long)]
+    pub allow_incomplete: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl TrainOptions {
+    /// The training configuration these options describe.
+    pub fn config(&self) -> Result<TrainConfig> {
+        let mut c = match &self.config {
+            Some(p) => serde_json::from_str(
+                &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+            )
+            .with_context(|| format!("parsing {}", p.display()))?,
+            None => TrainConfig::default(),
+        };
+        if let Some(v) = &self.device {
+            c.device = v.clone();
+        }
+        if let Some(v) = self.seed {
+            c.seed = v;
+        }
+        if let Some(v) = self.lr {
+            c.learning_rate = v;
+        }
+        if let Some(v) = self.batch_size {
+            c.batch_size = v;
+        }
+        if let Some(v) = self.max_epochs {
+            c.max_epochs = v;
+        }
+        if let Some(v) = self.patience_fitting {
+            c.patience_fitting = v;
+        }
+        if let Some(v) = self.patience_local {
+            c.patience_local = v;
+        }
+        if let Some(h) = &self.hidden {
+            let [pose, material, merged] = h[..] else {
+                anyhow::bail!("--hidden takes three sizes (pose, material, merged), e.g. 512,64,512");
+            };
+            (c.pose_hidden, c.material_hidden, c.hidden) = (pose, material, merged);
+        }
+        if let Some(v) = self.dropout {
+            c.dropout = v;
+        }
+        if let Some(v) = self.alpha {
+            c.alpha = v;
+        }
+        if let Some(f) = &self.frame {
+            c.displacement_frame = match f.to_ascii_lowercase().as_str() {
+                "world" => DisplacementFrame::World,
+                "canonical" => DisplacementFrame::Canonical,
+                other => anyhow::bail!("--frame {other}: use world or canonical"),
+            };
+        }
+        c.allow_incomplete_dataset |= self.allow_incomplete;
+        c.quiet |= self.quiet;
+        Ok(c)
+    }
+}
+
+/// Train a GarMatNet model (both nets) with early stopping; resumable.
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    pub options: TrainOptions,
+    /// The model file to write (`.safetensors`); its split file is written next to it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Continue from the checkpoint next to `--out` after an interrupted run.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// Train the TailorNet-style baseline: one pose-only net per target material.
+#[derive(Debug, Args)]
+pub struct TrainBaselineArgs {
+    #[command(flatten)]
+    pub options: TrainOptions,
+    /// The baseline directory to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Reproduce the paper's Table 3: train and evaluate one model per α.
+#[derive(Debug, Args)]
+pub struct SweepAlphaArgs {
+    #[command(flatten)]
+    pub options: TrainOptions,
+    /// The output directory (one model and report per α, plus the table).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The α values (default: 0.1, 0.3, 0.5, 0.7, 0.9).
+    #[arg(long, value_delimiter = ',')]
+    pub alphas: Option<Vec<f64>>,
+}
+
+/// Runs `train`.
+pub fn run_train(args: &TrainArgs) -> Result<()> {
+    let config = args.options.config()?;
+    let options = RunOptions {
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        resume: args.resume,
+        stop_after_epochs: None,
+    };
+    let summary = train(&args.options.data, &args.out, &config, &options)?;
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    Ok(())
+}
+
+/// Runs `train-baseline`.
+pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
+    let config = BaselineConfig::from_train_config(&args.options.config()?);
+    let manifest = train_baseline(&args.options.data, &args.out, &config)?;
+    println!("{}", serde_json::to_string_pretty(&manifest)?);
+    Ok(())
+}
+
+/// Runs `sweep-alpha`.
+pub fn run_sweep_alpha(args: &SweepAlphaArgs) -> Result<()> {
+    let config = args.options.config()?;
+    let alphas = args.alphas.clone().unwrap_or_else(|| PAPER_ALPHAS.to_vec());
+    let eval = EvalConfig {
+        device: config.device.clone(),
+        ..EvalConfig::default()
+    };
+    let rows = sweep_alpha(&args.options.data, &args.out, &alphas, &config, &eval)?;
+    println!("{}", serde_json::to_string_pretty(&rows)?);
+    Ok(())
+}

@@ -1,0 +1,97 @@
+//! The whole pipeline from the command line, at toy size: simulate → dataset check → train →
+//! train-baseline → eval, checking each step's files and the report's Table 2 keys.
+
+use std::path::Path;
+use std::process::Command;
+
+fn garmatnet(args: &[&str], dir: &Path) -> anyhow::Result<String> {
+    let out = Command::new(env!("CARGO_BIN_EXE_garmatnet"))
+        .args(args)
+        .current_dir(dir)
+        .output()?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    anyhow::ensure!(out.status.success(), "garmatnet {args:?} failed:\n{text}");
+    Ok(text)
+}
+
+#[test]
+fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
+    let tmp = tempfile::tempdir()?;
+    let dir = tmp.path();
+    // A quick solver: this test checks the plumbing, not convergence.
+    std::fs::write(
+        dir.join("quick.json"),
+        r#"{"drape": {"max_iterations": 10}, "max_step_rad": 0.15, "intermediate_iterations": 1}"#,
+    )?;
+    let materials = "Sherpa Fleece 160,Silk Duchess Satin,Trim Fusible Rigid,Cashmere,Cotton Poplin,Denim Heavy,Silk Chiffon";
+    garmatnet(
+        &[
+            "simulate",
+            "--materials",
+            materials,
+            "--poses",
+            "12",
+            "--resolution",
+            "coarse",
+            "--out",
+            "data",
+            "--solver",
+            "quick.json",
+            "--quiet",
+        ],
+        dir,
+    )?;
+    let check = garmatnet(&["dataset", "check", "data"], dir)?;
+    assert!(check.contains("complete: 84"), "{check}");
+
+    let small = [
+        "--data",
+        "data",
+        "--max-epochs",
+        "3",
+        "--hidden",
+        "16,8,16",
+        "--batch-size",
+        "8",
+        "--quiet",
+    ];
+    garmatnet(
+        &[&["train", "--out", "model.safetensors"][..], &small].concat(),
+        dir,
+    )?;
+    assert!(dir.join("model.safetensors").exists() && dir.join("model.split.json").exists());
+    garmatnet(
+        &[&["train-baseline", "--out", "baseline"][..], &small].concat(),
+        dir,
+    )?;
+    let eval = garmatnet(
+        &[
+            "eval",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--baseline",
+            "baseline",
+            "--report",
+            "report",
+            "--no-figures",
+        ],
+        dir,
+    )?;
+    assert!(eval.contains("GarMatNet"), "{eval}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("report/report.json"))?)?;
+    for net in ["garmatnet", "baseline"] {
+        for key in ["fitting_mm", "local_mm", "whole_mm"] {
+            let v = report[net][key].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v >= 0.0, "{net}.{key} = {v}");
+        }
+    }
+    assert!(dir.join("report/report.md").exists());
+    Ok(())
+}
