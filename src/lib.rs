@@ -3,6 +3,22 @@
 //!
 //! This facade re-exports the typed API of the `garmatnet-*` crates: the most used items at
 //! the top level, each crate whole under its own name.
+//!
+//! ```no_run
+//! use garmatnet::{CapsuleBody, Detail, Garment, GarMatNetModel, Material, Pose, Predictor, Resolution};
+//!
+//! # fn main() -> anyhow::Result<()> {
+//! let device = garmatnet::select_device("cpu")?; // or "gpu" with --features wgpu
+//! let body = CapsuleBody::smpl_neutral();
+//! let shirt = Garment::tshirt(Resolution::Default, &body)?;
+//! let model = GarMatNetModel::load("model.safetensors", &device)?; // refuses other templates
+//! let predictor = Predictor::for_garment(model, &shirt, body, &device)?;
+//! let pose = Pose::from_slice(&[0.0; 72])?; // SMPL axis-angle, root first
+//! let mesh = predictor.predict(&pose, &Material::preset("denim heavy")?, Detail::Full)?;
+//! garmatnet::core::write_obj("shirt.obj", &garmatnet::TriMesh::new(mesh.vertices, mesh.faces)?)?;
+//! # Ok(())
+//! # }
+//! ```
 
 pub use garmatnet_core as core;
 pub use garmatnet_model as model;

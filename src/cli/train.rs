@@ -93,7 +93,9 @@ impl TrainOptions {
         }
         if let Some(h) = &self.hidden {
             let [pose, material, merged] = h[..] else {
-                anyhow::bail!("--hidden takes three sizes (pose, material, merged), e.g. 512,64,512");
+                anyhow::bail!(
+                    "--hidden takes three sizes (pose, material, merged), e.g. 512,64,512"
+                );
             };
             (c.pose_hidden, c.material_hidden, c.hidden) = (pose, material, merged);
         }

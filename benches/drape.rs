@@ -1,0 +1,76 @@
+//! Run: `cargo bench --bench drape`
+//!
+//! Ground-truth solver speed, one thread: a warm-started pose (the previous frame's drape,
+//! then the walk to the next frame of the built-in motion and a full converge, as dataset
+//! generation does) at the default and paper resolutions, and a cold drape from the rest
+//! template. The material is Cotton Poplin; settings are the defaults datasets use.
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use garmatnet::core::{CapsuleBody, Garment, Material, Pose, Resolution};
+use garmatnet::sim::{MotionGenerator, SequenceResume, SequenceSettings, drape_sequence};
+
+fn bench_drape(c: &mut Criterion) {
+    let body = CapsuleBody::smpl_neutral();
+    let material = Material::preset("Cotton Poplin").expect("preset");
+    let settings = SequenceSettings::default();
+    let poses = MotionGenerator::new(0, 12).generate();
+    let mut group = c.benchmark_group("drape_one_thread");
+    for resolution in [Resolution::Default, Resolution::Paper] {
+        let garment = Garment::tshirt(resolution, &body).expect("template");
+        // Drape frames 0..10 once; each iteration then re-drapes frame 11 from frame 10.
+        let mut warm = Vec::new();
+        drape_sequence(
+            &garment,
+            &body,
+            &material,
+            &poses[..11],
+            &settings,
+            None,
+            |_, x, _| {
+                warm = x.to_vec();
+                Ok(())
+            },
+        )
+        .expect("warm-up sequence");
+        group.bench_function(BenchmarkId::new("warm_started_pose", resolution), |b| {
+            b.iter(|| {
+                let resume = SequenceResume {
+                    next: 11,
+                    positions: warm.clone(),
+                };
+                drape_sequence(
+                    &garment,
+                    &body,
+                    &material,
+                    &poses,
+                    &settings,
+                    Some(resume),
+                    |_, _, _| Ok(()),
+                )
+                .expect("drape")
+            })
+        });
+        group.bench_function(BenchmarkId::new("cold_from_rest", resolution), |b| {
+            b.iter(|| {
+                drape_sequence(
+                    &garment,
+                    &body,
+                    &material,
+                    &[Pose::zero()],
+                    &settings,
+                    None,
+                    |_, _, _| Ok(()),
+                )
+                .expect("drape")
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots().sample_size(10).measurement_time(std::time::Duration::from_secs(20));
+    targets = bench_drape
+}
+criterion_main!(benches);

@@ -1,0 +1,117 @@
+//! Run: `cargo bench --bench predict` (add `--features wgpu` to include the GPU when present)
+//!
+//! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
+//! batch 1 and 64, `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
+//! the paper-sized nets (hidden 512/64/512); and a 100-character `Scene` with mixed detail
+//! where 10 % of the characters change each frame. Weights are untrained: speed does not
+//! depend on their values.
+
+use burn::prelude::Device;
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use garmatnet::core::{
+    CapsuleBody, Garment, JointLimits, Material, Pose, Resolution, SplitMix64, presets,
+};
+use garmatnet::model::{
+    Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, Scene, TemplateInfo,
+};
+
+fn predictor(resolution: Resolution, device: &Device) -> (Predictor, f64) {
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(resolution, &body).expect("template");
+    device.seed(1);
+    let cfg = GarMatNetConfig::new(garment.vertex_count(), 512, 64, 512);
+    let model = GarMatNetModel::untrained(&cfg, TemplateInfo::of(&garment), device);
+    let n = garment.vertex_count();
+    let params = 2 * (72 * 512 + 512 + 6 * 64 + 64 + (512 + 64) * 512 + 512 + 512 * 3 * n + 3 * n);
+    let megabytes = params as f64 * 4.0 / 1e6;
+    (
+        Predictor::for_garment(model, &garment, body, device).expect("predictor"),
+        megabytes,
+    )
+}
+
+fn inputs(count: usize) -> Vec<(Pose, Material)> {
+    let limits = JointLimits::default();
+    let mut rng = SplitMix64::new(9);
+    (0..count)
+        .map(|k| {
+            (
+                limits.sample(&mut rng, 1.0),
+                presets()[k % presets().len()].material,
+            )
+        })
+        .collect()
+}
+
+fn bench_predict(c: &mut Criterion) {
+    let device = Device::flex();
+    for resolution in [Resolution::Default, Resolution::Paper] {
+        let (predictor, mb) = predictor(resolution, &device);
+        eprintln!(
+            "{resolution}: {} vertices, model {mb:.1} MB (f32)",
+            predictor.vertex_count()
+        );
+        let mut group = c.benchmark_group(format!("predict_cpu_{resolution}"));
+        let one = inputs(1);
+        let batch: Vec<_> = inputs(64)
+            .into_iter()
+            .map(|(p, m)| (p, m.to_normalized()))
+            .collect();
+        for detail in [Detail::Full, Detail::Smooth] {
+            group.throughput(Throughput::Elements(1));
+            group.bench_function(BenchmarkId::new(format!("{detail:?}"), "batch1"), |b| {
+                b.iter(|| {
+                    predictor
+                        .predict(&one[0].0, &one[0].1, detail)
+                        .expect("prediction")
+                })
+            });
+            group.throughput(Throughput::Elements(64));
+            group.bench_function(BenchmarkId::new(format!("{detail:?}"), "batch64"), |b| {
+                b.iter(|| predictor.predict_batch(&batch, detail).expect("prediction"))
+            });
+        }
+        group.finish();
+    }
+}
+
+fn bench_scene(c: &mut Criterion) {
+    let device = Device::flex();
+    let (predictor, _) = predictor(Resolution::Default, &device);
+    let mut scene = Scene::new();
+    let start = inputs(100);
+    for (id, (pose, material)) in start.iter().enumerate() {
+        let detail = if id % 3 == 0 {
+            Detail::Full
+        } else {
+            Detail::Smooth
+        };
+        let mut character = Character::new(pose.clone(), material.to_normalized());
+        character.detail = detail;
+        scene.insert(id as u64, character).expect("valid character");
+    }
+    scene.update(&predictor).expect("first frame");
+    let limits = JointLimits::default();
+    let mut rng = SplitMix64::new(4);
+    let mut group = c.benchmark_group("scene_100_characters");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("10pct_changing_per_frame", |b| {
+        b.iter(|| {
+            for _ in 0..10 {
+                let id = rng.below(100) as u64;
+                scene
+                    .set_pose(id, limits.sample(&mut rng, 1.0))
+                    .expect("known character");
+            }
+            scene.update(&predictor).expect("frame")
+        })
+    });
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots().sample_size(20).measurement_time(std::time::Duration::from_secs(4));
+    targets = bench_predict, bench_scene
+}
+criterion_main!(benches);
