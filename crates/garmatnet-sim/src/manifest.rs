@@ -61,7 +61,8 @@ pub struct SampleStats {
     pub max_penetration_m: f64,
     /// Largest edge strain (relative length change, dimensionless).
     pub max_strain: f64,
-    /// Wall-clock time of the solve (milliseconds).
+    /// Wall-clock time of the sample (milliseconds): the walk from the previous pose (or the
+    /// rest drape, for a material's first pose) plus the final converge.
     pub wall_time_ms: f64,
     /// Whether the solver met its tolerance.
     pub converged: bool,
