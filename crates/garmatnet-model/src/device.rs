@@ -13,8 +13,8 @@ use crate::error::Result;
 /// here.
 ///
 /// # Errors
-/// [`Error::DeviceUnavailable`] for `"gpu"` in a build without the `wgpu` feature;
-/// [`Error::Core`] (invalid argument) for any other name.
+/// [`crate::Error::DeviceUnavailable`] for `"gpu"` in a build without the `wgpu` feature;
+/// [`crate::Error::Core`] (invalid argument) for any other name.
 pub fn select_device(name: &str) -> Result<Device> {
     match name.trim().to_ascii_lowercase().as_str() {
         "cpu" => Ok(Device::flex()),

@@ -288,7 +288,7 @@ impl GarMatNet {
     /// basis/mean) columns of those vertices sliced out once.
     ///
     /// # Errors
-    /// [`Error::Core`] (out of range) if a vertex index is not below n.
+    /// [`crate::Error::Core`] (out of range) if a vertex index is not below n.
     pub fn output_head(&self, vertices: Option<&[usize]>) -> Result<OutputHead> {
         let weight = self.output.weight.val();
         let bias = self.output.bias.as_ref().map(|b| b.val());

@@ -4,7 +4,7 @@
 //!   the locally-detailed net. [`BaselineNet`]: the TailorNet-style comparison (no material).
 //! - [`GarMatNetModel`]: both nets, their [`OutputNormalizer`]s and metadata, saved as one
 //!   self-describing `.safetensors` file.
-//! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out`] keeps
+//! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out()`] keeps
 //!   garments outside the body.
 //!
 //! Backends are chosen at run time with [`select_device`]; the CPU (`flex`) is always there,

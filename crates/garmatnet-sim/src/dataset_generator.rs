@@ -134,7 +134,7 @@ pub fn generate_dataset(
     let started = Instant::now();
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(config.resolution, &body)?;
-    let smoother = LaplacianSmoother::new(&garment.rest, config.smoothing.clone())?;
+    let smoother = LaplacianSmoother::new(&garment.rest, config.smoothing)?;
     let writer = DatasetWriter::open(&config.out, dataset_spec(config, &garment)?)?;
     let materials: Vec<usize> = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))

@@ -1,5 +1,5 @@
 //! The static-drape solver: Newton's method with pseudo-transient continuation on the
-//! drape energy (springs, gravity, penalty contact; [`crate::drape_energy`]) plus lagged
+//! drape energy (springs, gravity, penalty contact; see `drape_energy.rs`) plus lagged
 //! Coulomb friction.
 //!
 //! Iteration `k` takes one damped Newton step on `Φ_k(x) = E(x) + |x - x_k|^2_M / (2h^2)`
