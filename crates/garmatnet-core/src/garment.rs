@@ -150,15 +150,7 @@ impl Garment {
                     MIN_BODY_CLEARANCE * 1e3
                 )));
             }
-            // One Newton step is exact only for true distance fields; smooth unions of
-            // primitives need a few more to land on the surface.
-            let mut rest_point = body.project(p);
-            for _ in 0..3 {
-                if body.distance(&rest_point).abs() < 1e-4 {
-                    break;
-                }
-                rest_point = body.project(&rest_point);
-            }
+            let rest_point = body.project(p);
             let weights = body.skin_weights(&rest_point);
             check_weights(k, &weights)?;
             anchors.push(BodyAnchor {
@@ -237,16 +229,11 @@ impl Garment {
     /// rest area of each incident triangle.
     #[must_use]
     pub fn vertex_masses(&self, density: Real) -> Vec<Real> {
-        let v = &self.rest.vertices;
-        let mut area = vec![0.0; v.len()];
-        for f in &self.rest.faces {
-            let [a, b, c] = f.map(|i| v[i as usize]);
-            let third = (b - a).cross(&(c - a)).norm() / 6.0;
-            for &i in f {
-                area[i as usize] += third;
-            }
-        }
-        area.into_iter().map(|a| a * density).collect()
+        self.rest
+            .vertex_areas()
+            .into_iter()
+            .map(|a| a * density)
+            .collect()
     }
 }
 

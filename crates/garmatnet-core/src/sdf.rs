@@ -15,13 +15,43 @@ pub trait SignedDistance: Sync {
         self.distance_and_gradient(p).0
     }
 
-    /// The closest surface point to `p` (one Newton step along the gradient; exact for
-    /// true distance fields).
+    /// The closest surface point to `p`: Newton steps along the gradient until the distance
+    /// is below 0.1 mm (one step for true distance fields; smooth unions of primitives are
+    /// only distance *bounds* in their blend regions, where each step recovers part of it).
     fn project(&self, p: &Vec3) -> Vec3 {
-        let (d, g) = self.distance_and_gradient(p);
-        p - g * d
+        let mut x = *p;
+        for _ in 0..PROJECTION_STEPS {
+            let (d, g) = self.distance_and_gradient(&x);
+            if d.is_nan() || d.abs() < 1e-4 {
+                break;
+            }
+            x -= g * d;
+        }
+        x
+    }
+
+    /// `p` moved along the gradient until it is at least `clearance` metres outside the
+    /// surface; points already that far out are returned unchanged (the same iteration as
+    /// [`SignedDistance::project`], for the same reason).
+    fn push_outside(&self, p: &Vec3, clearance: Real) -> Vec3 {
+        let mut x = *p;
+        for _ in 0..PROJECTION_STEPS {
+            let (d, g) = self.distance_and_gradient(&x);
+            // A tiny slack keeps rounding from re-flagging a point just placed at the
+            // clearance; a NaN distance (a broken field) leaves the point where it is.
+            if d.is_nan() || d >= clearance - 1e-9 {
+                break;
+            }
+            x += g * (clearance - d);
+        }
+        x
     }
 }
+
+/// The most Newton steps of [`SignedDistance::project`] and [`SignedDistance::push_outside`]:
+/// with the capsule union's shortest raw gradient (~0.25) 32 steps close all but 1e-3 of the
+/// gap; true distance fields need one.
+const PROJECTION_STEPS: usize = 32;
 
 /// A rest-pose body that garments can be fitted to: a signed distance field on a skeleton,
 /// with linear-blend-skinning weights for any point near its surface.

@@ -33,10 +33,6 @@ pub struct PushOutReport {
 
 /// Newton steps per vertex: one is exact for a true distance field; the rest absorb the
 /// error of approximate fields (smooth unions of capsules).
-// The capsule body's smooth union is a distance *bound* in blend regions (its raw gradient can
-// be as short as ~0.25 there), so each step recovers only part of the deficit; 32 steps close
-// it to < 1e-3 of the start even then. Only vertices inside or within ε pay for them.
-const MAX_STEPS: usize = 32;
 
 /// Moves every vertex with signed distance below `epsilon` along the gradient until it is
 /// `epsilon` outside `body`.
@@ -45,15 +41,7 @@ pub fn push_out(vertices: &mut [Vec3], body: &dyn SignedDistance, epsilon: Real)
     let mut report = PushOutReport::default();
     for v in vertices.iter_mut() {
         let start = *v;
-        for _ in 0..MAX_STEPS {
-            let (d, g) = body.distance_and_gradient(v);
-            // A tiny slack keeps rounding from re-flagging a vertex just placed at ε; a NaN
-            // distance (a broken field) leaves the vertex where it is.
-            if d.is_nan() || d >= epsilon - 1e-9 {
-                break;
-            }
-            *v += g * (epsilon - d);
-        }
+        *v = body.push_outside(v, epsilon);
         let moved = (*v - start).norm();
         if moved > 0.0 {
             report.moved += 1;

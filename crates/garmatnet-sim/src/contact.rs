@@ -47,15 +47,7 @@ pub(crate) fn push_out(
         if is_pinned {
             continue;
         }
-        // Several projections: in a smooth union's blend regions the field is only a
-        // distance bound, so one step along the gradient recovers just part of the depth.
-        for _ in 0..32 {
-            let (d, n) = collider.distance_and_gradient(x);
-            if d.is_nan() || d >= 0.0 {
-                break;
-            }
-            *x -= n * d;
-        }
+        *x = collider.push_outside(x, 0.0);
         deepest = deepest.max(-collider.distance(x));
     }
     deepest
