@@ -31,9 +31,6 @@ pub struct PushOutReport {
     pub max_move: Real,
 }
 
-/// Newton steps per vertex: one is exact for a true distance field; the rest absorb the
-/// error of approximate fields (smooth unions of capsules).
-
 /// Moves every vertex with signed distance below `epsilon` along the gradient until it is
 /// `epsilon` outside `body`.
 #[must_use]
