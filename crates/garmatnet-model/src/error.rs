@@ -32,6 +32,19 @@ pub enum Error {
         message: String,
     },
 
+    /// There is no model file where one was expected (the shipped model is missing from a
+    /// partial checkout, or a path is wrong). Point `GARMATNET_MODEL` at a model file, or
+    /// train one with `garmatnet train`.
+    #[error(
+        "no model file at `{}`; set the GARMATNET_MODEL environment variable to a model file \
+         (or pass --model), or train one with `garmatnet train`",
+        path.display()
+    )]
+    MissingModel {
+        /// Where the model was looked for.
+        path: PathBuf,
+    },
+
     /// A model file was written by an incompatible version of garmatnet. Re-train or
     /// re-export the model with this version.
     #[error(

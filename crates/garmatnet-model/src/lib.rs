@@ -24,6 +24,7 @@
 //! ```
 
 pub mod baseline_net;
+pub mod default_model;
 pub mod device;
 pub mod error;
 pub mod garmatnet_net;
@@ -38,6 +39,7 @@ mod tensor_util;
 mod test_util;
 
 pub use baseline_net::{BaselineNet, BaselineNetConfig};
+pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;
 pub use error::{Error, Result};
 pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MATERIAL_DIM, OutputHead};
