@@ -1,103 +1,179 @@
-//! Run: `cargo run --release --example drape [-- --out DIR --resolution default --poses 3]`
+//! Run: `cargo run --release --example drape [-- --material NAME --pose FRAME --compare]`
 //!
-//! Today this shows what the library can already do without a trained model: it poses the
-//! body and the T-shirt template (linear blend skinning of the template with its body
-//! anchors), splits the garment into its smooth part and its details with the paper's
-//! Laplacian smoothing (λ = 0.15, 80 iterations), and writes OBJs and PNG renders.
-//! Once the trained model ships, this example predicts drapes for several fabrics instead.
+//! Drapes the T-shirt with the shipped GarMatNet model (or `--model FILE`, or
+//! `$GARMATNET_MODEL`) for a few poses of the built-in motion and three contrasting fabrics,
+//! prints the prediction time of every frame, and writes for each an OBJ, a glTF binary
+//! (`.glb`, garment + body: open it in Blender or any browser glTF viewer) and a PNG render,
+//! plus one PNG per pose with the fabrics side by side. `--compare` also runs the simulator
+//! on the same input and prints the error (mm) and the speed-up, with a render of
+//! prediction | simulation | per-vertex error.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use garmatnet::core::render::{
-    BODY_COLOR, Camera, GARMENT_COLOR, RenderItem, RenderSettings, Shading, render, save_png,
-    side_by_side,
+use garmatnet::core::render::{RenderSettings, save_png, side_by_side};
+use garmatnet::model::{Detail, Predictor, default_model_path, select_device};
+use garmatnet::sim::SequenceSettings;
+use garmatnet::train::{
+    DrapeView, comparison_image, resolve_material, resolve_pose, simulate_drape, vertex_errors_mm,
 };
-use garmatnet::core::{LaplacianSmoother, SmoothingSettings, write_obj};
-use garmatnet::sim::MotionGenerator;
-use garmatnet::{CapsuleBody, Garment, Resolution, TriMesh};
+use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
+
+/// The fabrics shown when none is named: light and fluid, a heavy twill, a stiff interlining.
+const DEFAULT_FABRICS: [&str; 3] = ["Silk Chiffon", "Denim Heavy", "Trim Fusible Rigid"];
+/// Frames of the built-in motion shown when no pose is named.
+const DEFAULT_FRAMES: [&str; 3] = ["20", "95", "170"];
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
 struct Args {
+    /// Fabric preset(s), repeatable (see `garmatnet materials`); or six physical values.
+    #[arg(long)]
+    material: Vec<String>,
+    /// A material as normalised ω: six numbers in [0, 1], comma-separated (replaces
+    /// --material).
+    #[arg(long)]
+    omega: Option<String>,
+    /// Pose(s), repeatable: a frame of the built-in motion, or a pose file (.json/.npz/.npy;
+    /// its first pose).
+    #[arg(long)]
+    pose: Vec<String>,
+    /// `full` (both nets) or `smooth` (the generally-fitting net only).
+    #[arg(long, default_value = "full")]
+    detail: Detail,
+    /// Compute device: cpu, gpu (build with `--features wgpu`) or auto.
+    #[arg(long, default_value = "cpu")]
+    device: String,
+    /// Model file (default: the shipped model).
+    #[arg(long)]
+    model: Option<PathBuf>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/drape")]
     out: PathBuf,
-    /// Template resolution: coarse, default or paper.
-    #[arg(long, default_value = "default")]
-    resolution: Resolution,
-    /// How many poses of the built-in motion to show.
-    #[arg(long, default_value_t = 3)]
-    poses: usize,
+    /// Also run the simulator for every input: error (mm), speed-up, side-by-side render.
+    #[arg(long)]
+    compare: bool,
+}
+
+/// A file-name-safe form of a fabric name.
+fn slug(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    let fabrics: Vec<(String, Material)> = match &args.omega {
+        Some(omega) => vec![("omega".into(), resolve_material(None, Some(omega), "")?)],
+        None if args.material.is_empty() => DEFAULT_FABRICS
+            .iter()
+            .map(|n| Ok(((*n).to_string(), Material::preset(n)?)))
+            .collect::<Result<_>>()?,
+        None => args
+            .material
+            .iter()
+            .map(|m| Ok((m.clone(), resolve_material(Some(m), None, "")?)))
+            .collect::<Result<_>>()?,
+    };
+    let pose_specs: Vec<String> = if args.pose.is_empty() {
+        DEFAULT_FRAMES.iter().map(|s| (*s).to_string()).collect()
+    } else {
+        args.pose.clone()
+    };
+    let poses: Vec<(String, Pose)> = pose_specs
+        .iter()
+        .map(|spec| Ok((spec.clone(), resolve_pose(Some(spec), None)?)))
+        .collect::<Result<_>>()?;
+
+    let device = select_device(&args.device)?;
+    let model_path = args.model.clone().unwrap_or_else(default_model_path);
+    let predictor = Predictor::from_file(&model_path, &device)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let body = CapsuleBody::smpl_neutral();
-    let shirt = Garment::tshirt(args.resolution, &body)?;
-    let smoother = LaplacianSmoother::new(&shirt.rest, SmoothingSettings::default())?;
     println!(
-        "T-shirt template: {} vertices, {} springs ({} resolution)",
-        shirt.vertex_count(),
-        shirt.springs.len(),
-        args.resolution
+        "model {} ({} vertices), {} detail on {}",
+        model_path.display(),
+        predictor.vertex_count(),
+        args.detail,
+        args.device
     );
+    // One untimed prediction warms the backend up.
+    predictor.predict(&poses[0].1, &fabrics[0].1, args.detail)?;
 
-    let motion = MotionGenerator::new(0, 240).generate();
-    let step = (motion.len() / args.poses.max(1)).max(1);
-    for (k, pose) in motion.iter().step_by(step).take(args.poses).enumerate() {
-        let started = Instant::now();
-        let posed_body = body.pose(pose);
-        let garment = TriMesh::new(
-            shirt.posed_rest_guess(posed_body.skinning_transforms()),
-            shirt.rest.faces.clone(),
-        )?;
-        let smooth = TriMesh::new(
-            smoother.smooth(&garment.vertices)?,
-            shirt.rest.faces.clone(),
-        )?;
-        let elapsed = started.elapsed();
-        let body_mesh = posed_body.mesh();
-
-        let stem = format!("pose{:03}", k * step);
-        write_obj(args.out.join(format!("{stem}_garment.obj")), &garment)?;
-        write_obj(args.out.join(format!("{stem}_smooth.obj")), &smooth)?;
-        write_obj(args.out.join(format!("{stem}_body.obj")), &body_mesh)?;
-        let b = body_mesh.bounds().context("empty body mesh")?;
-        let camera = Camera::framing(b.min, b.max, 0.35);
-        let settings = RenderSettings::default();
-        let view = |g: &TriMesh| {
-            render(
-                &[
-                    RenderItem {
-                        mesh: &body_mesh,
-                        shading: Shading::Uniform(BODY_COLOR),
-                    },
-                    RenderItem {
-                        mesh: g,
-                        shading: Shading::Uniform(GARMENT_COLOR),
-                    },
-                ],
-                &camera,
-                &settings,
-            )
+    let body_model = CapsuleBody::smpl_neutral();
+    let template = Garment::tshirt(predictor.model().meta.template.resolution, &body_model)?;
+    let settings = RenderSettings::default();
+    for (spec, pose) in &poses {
+        let pose_name = match spec.parse::<usize>() {
+            Ok(frame) => format!("frame{frame:03}"),
+            Err(_) => slug(spec),
         };
-        let png = args.out.join(format!("{stem}.png"));
+        let body = body_model.pose(pose).mesh();
+        let mut panels = Vec::new();
+        for (name, material) in &fabrics {
+            let started = Instant::now();
+            let mesh = predictor.predict(pose, material, args.detail)?;
+            let ms = started.elapsed().as_secs_f64() * 1e3;
+            let garment = TriMesh::new(mesh.vertices, mesh.faces)?;
+            let view = DrapeView {
+                body: &body,
+                garment: &garment,
+                garment_colors: None,
+            };
+            let stem = format!("{pose_name}_{}", slug(name));
+            for ext in ["obj", "glb"] {
+                view.write(&args.out.join(format!("{stem}.{ext}")))?;
+            }
+            let image = view.render(&settings)?;
+            save_png(&args.out.join(format!("{stem}.png")), &image)?;
+            panels.push(image);
+            print!("{pose_name} {name:<20} predicted in {ms:6.2} ms");
+            if args.compare {
+                let sim = simulate_drape(
+                    &template,
+                    &body_model,
+                    pose,
+                    material,
+                    &SequenceSettings::default(),
+                )?;
+                let errors = vertex_errors_mm(&garment.vertices, &sim.vertices)?;
+                let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+                let truth = TriMesh::new(sim.vertices, garment.faces.clone())?;
+                save_png(
+                    &args.out.join(format!("{stem}_compare.png")),
+                    &comparison_image(&body, &garment, &truth, &errors, 20.0)?,
+                )?;
+                print!(
+                    " | simulated in {:.0} ms{}: error {mean:.2} mm, {:.0}x faster",
+                    sim.wall_ms,
+                    if sim.converged {
+                        ""
+                    } else {
+                        " (not converged)"
+                    },
+                    sim.wall_ms / ms
+                );
+            }
+            println!();
+        }
         save_png(
-            &png,
-            &side_by_side(&[view(&garment)?, view(&smooth)?], settings.background),
+            &args.out.join(format!("{pose_name}_fabrics.png")),
+            &side_by_side(&panels, settings.background),
         )?;
-        println!(
-            "frame {:>3}: skinned + smoothed in {:.1} ms -> {} (left: skinned template, right: smooth part)",
-            k * step,
-            elapsed.as_secs_f64() * 1e3,
-            png.display()
-        );
     }
-    println!("wrote OBJs and PNGs to {}", args.out.display());
+    println!(
+        "wrote OBJ, GLB and PNG files to {} ({}_fabrics.png: the fabrics side by side)",
+        args.out.display(),
+        "<pose>"
+    );
     Ok(())
 }

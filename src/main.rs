@@ -19,6 +19,9 @@ enum Command {
     Template(cli::template::TemplateArgs),
     /// Write the procedural body mesh (OBJ), optionally posed.
     Body(cli::body::BodyArgs),
+    /// Predict a drape with a trained model (the shipped one by default) and write it as
+    /// OBJ, glTF binary, PLY or PNG; `--compare` also runs the simulator.
+    Drape(cli::drape::DrapeArgs),
     /// List the fabric presets and their material parameters.
     Materials,
     /// Generate a ground-truth dataset with the mass-spring solver (resumable, shardable).
@@ -41,6 +44,7 @@ fn main() -> anyhow::Result<()> {
     match &cli.command {
         Command::Template(args) => cli::template::run(args),
         Command::Body(args) => cli::body::run(args),
+        Command::Drape(args) => cli::drape::run(args),
         Command::Materials => cli::materials::run(),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Dataset(command) => cli::dataset::run(command),

@@ -125,3 +125,115 @@ fn bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
     assert!(String::from_utf8_lossy(&unwritable.stderr).contains("no/such/dir"));
     Ok(())
 }
+
+/// An untrained model for the coarse T-shirt (the CLI cannot tell it from a trained one).
+fn coarse_model(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
+    use garmatnet::model::TemplateInfo;
+    let device = garmatnet::select_device("cpu")?;
+    let body = garmatnet::CapsuleBody::smpl_neutral();
+    let garment = garmatnet::Garment::tshirt(garmatnet::Resolution::Coarse, &body)?;
+    let config = garmatnet::GarMatNetConfig::new(garment.vertex_count(), 16, 8, 16);
+    let path = dir.join("coarse.safetensors");
+    garmatnet::GarMatNetModel::untrained(&config, TemplateInfo::of(&garment), &device)
+        .save(&path)?;
+    Ok(path)
+}
+
+#[test]
+fn drape_writes_every_format_and_compares_with_the_simulator() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let model = coarse_model(dir.path())?;
+    let outs: Vec<_> = ["d.obj", "d.glb", "d.ply", "d.png"]
+        .iter()
+        .map(|n| dir.path().join(n))
+        .collect();
+    let mut cmd = garmatnet();
+    cmd.args([
+        "drape",
+        "--material",
+        "denim heavy",
+        "--pose",
+        "12",
+        "--compare",
+        "--model",
+    ])
+    .arg(&model);
+    for o in &outs {
+        cmd.arg("--out").arg(o);
+    }
+    let output = cmd.output()?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for o in &outs {
+        assert!(
+            std::fs::metadata(o)?.len() > 100,
+            "{} is missing or empty",
+            o.display()
+        );
+    }
+    assert!(dir.path().join("d_compare.png").exists());
+    assert!(stdout.contains("prediction error mean"), "{stdout}");
+    let mesh = garmatnet::core::read_obj(&outs[0])?;
+    assert_eq!(
+        mesh.vertex_count(),
+        garmatnet::Garment::tshirt(
+            garmatnet::Resolution::Coarse,
+            &garmatnet::CapsuleBody::smpl_neutral()
+        )?
+        .vertex_count()
+    );
+    Ok(())
+}
+
+#[test]
+fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let model = coarse_model(dir.path())?;
+    let out = dir.path().join("x.obj");
+    let model_arg = model.display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["--material", "sillk"], "Silk"),
+        (vec!["--omega", "0.1,0.2"], "6 comma-separated"),
+        (vec!["--omega", "0.1,0.2,0.3,0.4,0.5,7"], "density"),
+        (vec!["--detail", "wrinkly"], "smooth"),
+        (vec!["--pose", "99999"], "frame"),
+        (vec!["--device", "tpu"], "tpu"),
+    ];
+    for (args, hint) in cases {
+        let output = garmatnet()
+            .args(["drape", "--model", &model_arg])
+            .args(&args)
+            .arg("--out")
+            .arg(&out)
+            .env_remove("RUST_BACKTRACE")
+            .output()?;
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{args:?} should fail");
+        assert!(
+            stderr.contains(hint),
+            "{args:?}: expected `{hint}` in: {stderr}"
+        );
+        assert!(!out.exists(), "{args:?} left an output file behind");
+    }
+    let bad_ext = dir.path().join("x.stl");
+    let output = garmatnet()
+        .args(["drape", "--model", &model_arg, "--out"])
+        .arg(&bad_ext)
+        .output()?;
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains(".glb"));
+    assert!(!bad_ext.exists());
+    let missing = garmatnet()
+        .args(["drape", "--out"])
+        .arg(&out)
+        .env("GARMATNET_MODEL", dir.path().join("nope.safetensors"))
+        .output()?;
+    assert!(!missing.status.success());
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("GARMATNET_MODEL"));
+    assert!(!out.exists());
+    Ok(())
+}

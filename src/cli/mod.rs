@@ -2,9 +2,9 @@
 
 pub mod body;
 pub mod dataset;
+pub mod drape;
 pub mod eval;
 pub mod materials;
-pub mod pose_arg;
 pub mod simulate;
 pub mod template;
 pub mod train;

@@ -105,7 +105,10 @@ mod tests {
         let err = Predictor::from_file("/nonexistent/model.safetensors", &device)
             .expect_err("no file there");
         let message = err.to_string();
-        assert!(message.contains("/nonexistent/model.safetensors"), "{message}");
+        assert!(
+            message.contains("/nonexistent/model.safetensors"),
+            "{message}"
+        );
         assert!(message.contains(MODEL_ENV), "{message}");
         Ok(())
     }

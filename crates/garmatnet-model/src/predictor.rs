@@ -29,6 +29,34 @@ pub enum Detail {
     Full,
 }
 
+impl std::fmt::Display for Detail {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Detail::Smooth => "smooth",
+            Detail::Full => "full",
+        })
+    }
+}
+
+impl std::str::FromStr for Detail {
+    type Err = Error;
+
+    /// `full` or `smooth` (case-insensitive).
+    ///
+    /// # Errors
+    /// [`Error::Core`] (invalid argument) for anything else.
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "full" => Ok(Detail::Full),
+            "smooth" => Ok(Detail::Smooth),
+            _ => Err(garmatnet_core::Error::InvalidArgument(format!(
+                "unknown detail level `{s}`; use full (both nets) or smooth (the fitting net only)"
+            ))
+            .into()),
+        }
+    }
+}
+
 /// A predicted garment: the template's topology with posed vertex positions (metres).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GarmentMesh {
@@ -382,6 +410,16 @@ mod tests {
     use crate::test_util::{cpu, small_model, test_anchors, test_faces};
     use approx::assert_relative_eq;
     use garmatnet_core::{JointLimits, Sphere, SplitMix64};
+
+    #[test]
+    fn detail_parses_its_display_and_rejects_others() {
+        for d in [Detail::Full, Detail::Smooth] {
+            assert_eq!(d.to_string().parse::<Detail>().ok(), Some(d));
+        }
+        assert_eq!(" SMOOTH ".parse::<Detail>().ok(), Some(Detail::Smooth));
+        let err = "wrinkly".parse::<Detail>().expect_err("unknown level");
+        assert!(err.to_string().contains("use full"), "{err}");
+    }
 
     pub(crate) fn predictor(seed: u64, frame: DisplacementFrame) -> Predictor {
         let dev = cpu();

@@ -16,6 +16,11 @@ pub enum Error {
     #[error(transparent)]
     Model(#[from] garmatnet_model::Error),
 
+    /// The simulator failed (a material outside the physical range, a diverged drape). The
+    /// message says what to change.
+    #[error(transparent)]
+    Sim(#[from] garmatnet_sim::Error),
+
     /// A file or directory could not be read or written. Check the path and permissions.
     #[error("cannot access `{path}`: {source}")]
     Io {

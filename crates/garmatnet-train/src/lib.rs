@@ -32,6 +32,7 @@ pub mod evaluation;
 mod figures;
 pub mod plots;
 pub mod report;
+pub mod showcase;
 pub mod split;
 #[cfg(test)]
 mod test_util;
@@ -53,6 +54,11 @@ pub use plots::{Series, line_chart};
 pub use report::{
     ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
     Timing,
+};
+pub use showcase::{
+    DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeView, OutputFormat, SimulatedDrape,
+    comparison_image, material_from_omega, resolve_material, resolve_pose, simulate_drape,
+    vertex_errors_mm,
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train};

@@ -1,0 +1,448 @@
+//! What `garmatnet drape` and the `drape` example share: materials given as normalised ω,
+//! outputs chosen by file extension (OBJ, glTF binary, PLY, PNG render), and the comparison
+//! of a prediction with the simulator's ground truth for the same input.
+
+use std::path::Path;
+use std::time::Instant;
+
+use garmatnet_core::gltf::{GlbMesh, write_glb};
+use garmatnet_core::read_poses;
+use garmatnet_core::render::{
+    BODY_COLOR, Camera, Color, GARMENT_COLOR, RenderItem, RenderSettings, Shading, heat_colors,
+    render, save_png, side_by_side,
+};
+use garmatnet_core::{
+    CapsuleBody, Error as CoreError, Garment, MATERIAL_DIM, Material, Pose, Real, TriMesh, Vec3,
+    write_obj, write_ply,
+};
+use garmatnet_sim::{MotionGenerator, SequenceSettings, drape_sequence};
+use image::RgbImage;
+
+use crate::error::{Error, Result};
+
+/// The seed of the built-in motion sequence that `--pose FRAME` indexes.
+pub const DEFAULT_MOTION_SEED: u64 = 0;
+/// The number of frames of the built-in motion sequence that `--pose FRAME` indexes.
+pub const DEFAULT_MOTION_FRAMES: usize = 240;
+
+/// Resolves a `--pose` argument: a frame number of the built-in motion sequence
+/// ([`DEFAULT_MOTION_SEED`], [`DEFAULT_MOTION_FRAMES`]) or a pose file (`.json`, `.npz`,
+/// `.npy`), of which `frame` picks one pose (default the first). No argument is the T-pose.
+///
+/// # Errors
+/// [`CoreError::OutOfRange`] for a frame past the sequence or the file; the pose file
+/// reader's errors (missing file, malformed content, NaN) otherwise.
+pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
+    let Some(spec) = spec else {
+        return Ok(Pose::zero());
+    };
+    let out_of_range = |what: &str, index: usize, count: usize| CoreError::OutOfRange {
+        what: what.into(),
+        value: index as Real,
+        min: 0.0,
+        max: count.saturating_sub(1) as Real,
+        hint: String::new(),
+    };
+    if let Ok(index) = spec.trim().parse::<usize>() {
+        let frames = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
+        return frames.get(index).cloned().ok_or_else(|| {
+            out_of_range("frame of the built-in motion (--pose)", index, frames.len()).into()
+        });
+    }
+    let poses = read_poses(Path::new(spec))?;
+    let index = frame.unwrap_or(0);
+    poses.get(index).cloned().ok_or_else(|| {
+        out_of_range(
+            &format!("pose index into `{spec}` (--frame)"),
+            index,
+            poses.len(),
+        )
+        .into()
+    })
+}
+
+/// The material of a `--material` / `--omega` pair: `omega` (normalised ω, see
+/// [`material_from_omega`]) when given, else `material` (a preset name or six physical
+/// values, see [`Material::from_str`](std::str::FromStr)), else the preset named `default`.
+///
+/// # Errors
+/// As [`material_from_omega`] and [`Material::from_str`](std::str::FromStr): unknown
+/// names (with the closest presets), wrong counts, values out of range.
+pub fn resolve_material(
+    material: Option<&str>,
+    omega: Option<&str>,
+    default: &str,
+) -> Result<Material> {
+    match (omega, material) {
+        (Some(o), _) => material_from_omega(o),
+        (None, Some(m)) => Ok(m.parse::<Material>()?),
+        (None, None) => Ok(Material::preset(default)?),
+    }
+}
+
+/// Parses a normalised material ω: six comma-separated numbers in [0, 1] (structural V/H,
+/// flexion V/H, shear, density on the library's log scale; see
+/// [`Material::to_normalized`]).
+///
+/// ```
+/// let m = garmatnet_train::showcase::material_from_omega("0.5, 0.5, 0.5, 0.5, 0.5, 0.5")?;
+/// assert!((m.to_normalized()[0] - 0.5).abs() < 1e-12);
+/// # Ok::<(), garmatnet_train::Error>(())
+/// ```
+///
+/// # Errors
+/// [`CoreError::InvalidArgument`] when there are not six numbers or one does not parse;
+/// [`CoreError::OutOfRange`] / [`CoreError::NonFinite`] (naming the component) for a value
+/// outside [0, 1] or NaN.
+pub fn material_from_omega(text: &str) -> Result<Material> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != MATERIAL_DIM {
+        return Err(CoreError::InvalidArgument(format!(
+            "ω needs {MATERIAL_DIM} comma-separated numbers in [0, 1] (structural V, structural \
+             H, flexion V, flexion H, shear, density), got {} in `{text}`",
+            parts.len()
+        ))
+        .into());
+    }
+    let mut omega = [0.0; MATERIAL_DIM];
+    for (k, part) in parts.iter().enumerate() {
+        omega[k] = part.parse::<Real>().map_err(|_| {
+            CoreError::InvalidArgument(format!("ω component {} is `{part}`, not a number", k + 1))
+        })?;
+    }
+    Ok(Material::from_normalized(omega)?)
+}
+
+/// The kinds of file a drape can be written as, chosen by extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// `.obj`: the garment mesh.
+    Obj,
+    /// `.glb`: garment and posed body as one glTF binary (Blender, browser viewers).
+    Glb,
+    /// `.ply`: the garment mesh (with per-vertex colours when there are some).
+    Ply,
+    /// `.png`: a render of the garment on the posed body.
+    Png,
+}
+
+impl OutputFormat {
+    /// The format `path`'s extension names (case-insensitive).
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidArgument`] for another or a missing extension, listing the ones
+    /// understood.
+    pub fn from_path(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("obj") => Ok(Self::Obj),
+            Some("glb") => Ok(Self::Glb),
+            Some("ply") => Ok(Self::Ply),
+            Some("png") => Ok(Self::Png),
+            _ => Err(CoreError::InvalidArgument(format!(
+                "cannot tell the output format of `{}`: end the file name in .obj, .glb, .ply \
+                 or .png",
+                path.display()
+            ))
+            .into()),
+        }
+    }
+}
+
+/// A garment on its posed body, ready to render or export.
+#[derive(Debug, Clone, Copy)]
+pub struct DrapeView<'a> {
+    /// The posed body mesh (metres).
+    pub body: &'a TriMesh,
+    /// The garment mesh (metres).
+    pub garment: &'a TriMesh,
+    /// Optional per-vertex garment colours (a heat map); the garment colour otherwise.
+    pub garment_colors: Option<&'a [Color]>,
+}
+
+impl DrapeView<'_> {
+    /// Renders the view from the front, framed on the body (every view of one body is framed
+    /// alike, so side-by-side images line up).
+    ///
+    /// # Errors
+    /// [`CoreError::Mismatch`] when the colour list does not match the garment.
+    pub fn render(&self, settings: &RenderSettings) -> Result<RgbImage> {
+        let bounds = self
+            .body
+            .bounds()
+            .ok_or_else(|| CoreError::InvalidMesh("the body mesh is empty".into()))?;
+        let camera = Camera::framing(bounds.min, bounds.max, 0.35);
+        let garment_shading = match self.garment_colors {
+            Some(colors) => Shading::PerVertex(colors),
+            None => Shading::Uniform(GARMENT_COLOR),
+        };
+        Ok(render(
+            &[
+                RenderItem {
+                    mesh: self.body,
+                    shading: Shading::Uniform(BODY_COLOR),
+                },
+                RenderItem {
+                    mesh: self.garment,
+                    shading: garment_shading,
+                },
+            ],
+            &camera,
+            settings,
+        )?)
+    }
+
+    /// Writes the view to `path` in the format its extension names ([`OutputFormat`]),
+    /// atomically: OBJ and PLY hold the garment, GLB garment and body, PNG a render.
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidArgument`] for an unknown extension; [`CoreError::Io`] when the
+    /// file cannot be written (nothing is left behind then).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        match OutputFormat::from_path(path)? {
+            OutputFormat::Obj => write_obj(path, self.garment)?,
+            OutputFormat::Ply => write_ply(path, self.garment, self.garment_colors)?,
+            OutputFormat::Glb => write_glb(
+                path,
+                &[
+                    GlbMesh {
+                        name: "garment",
+                        mesh: self.garment,
+                        color: GARMENT_COLOR,
+                        vertex_colors: self.garment_colors,
+                    },
+                    GlbMesh {
+                        name: "body",
+                        mesh: self.body,
+                        color: BODY_COLOR,
+                        vertex_colors: None,
+                    },
+                ],
+            )?,
+            OutputFormat::Png => save_png(path, &self.render(&RenderSettings::default())?)?,
+        }
+        Ok(())
+    }
+}
+
+/// The simulator's drape of one (pose, material): the ground truth a prediction is compared
+/// with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulatedDrape {
+    /// The settled garment (metres).
+    pub vertices: Vec<Vec3>,
+    /// Wall-clock time of the whole drape: rest drape, walk to the pose, converge (ms).
+    pub wall_ms: Real,
+    /// Whether the final converge met the residual tolerances.
+    pub converged: bool,
+}
+
+/// Drapes `garment` of `material` on `body` at `pose` with the dataset generator's solver and
+/// settings (from the rest garment, through intermediate poses), on this thread.
+///
+/// # Errors
+/// The solver's errors ([`garmatnet_sim::Error`]), e.g. a material outside the physical range.
+pub fn simulate_drape(
+    garment: &Garment,
+    body: &CapsuleBody,
+    pose: &Pose,
+    material: &Material,
+    settings: &SequenceSettings,
+) -> Result<SimulatedDrape> {
+    let started = Instant::now();
+    let mut vertices = Vec::new();
+    let stats = drape_sequence(
+        garment,
+        body,
+        material,
+        std::slice::from_ref(pose),
+        settings,
+        None,
+        |_, x, _| {
+            vertices = x.to_vec();
+            Ok(())
+        },
+    )
+    .map_err(Error::Sim)?;
+    Ok(SimulatedDrape {
+        vertices,
+        wall_ms: started.elapsed().as_secs_f64() * 1e3,
+        converged: stats.last().is_some_and(|s| s.converged),
+    })
+}
+
+/// Per-vertex Euclidean distance between two garments of one template (millimetres).
+///
+/// # Errors
+/// [`CoreError::Mismatch`] when the vertex counts differ.
+pub fn vertex_errors_mm(predicted: &[Vec3], truth: &[Vec3]) -> Result<Vec<Real>> {
+    if predicted.len() != truth.len() {
+        return Err(CoreError::Mismatch {
+            what: "garment vertex counts".into(),
+            expected: truth.len().to_string(),
+            got: predicted.len().to_string(),
+        }
+        .into());
+    }
+    Ok(predicted
+        .iter()
+        .zip(truth)
+        .map(|(p, t)| (p - t).norm() * 1e3)
+        .collect())
+}
+
+/// Three renders side by side: the prediction, the ground truth, and the prediction coloured
+/// by its per-vertex error (blue 0 to red `max_mm`).
+///
+/// # Errors
+/// [`CoreError::Mismatch`] when the meshes or the error list disagree in size.
+pub fn comparison_image(
+    body: &TriMesh,
+    predicted: &TriMesh,
+    truth: &TriMesh,
+    errors_mm: &[Real],
+    max_mm: Real,
+) -> Result<RgbImage> {
+    let settings = RenderSettings::default();
+    let colors = heat_colors(errors_mm, max_mm);
+    let view = |garment: &TriMesh, garment_colors: Option<&[Color]>| {
+        DrapeView {
+            body,
+            garment,
+            garment_colors,
+        }
+        .render(&settings)
+    };
+    Ok(side_by_side(
+        &[
+            view(predicted, None)?,
+            view(truth, None)?,
+            view(predicted, Some(&colors))?,
+        ],
+        settings.background,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use garmatnet_core::Resolution;
+
+    #[test]
+    fn omega_round_trips_and_bad_omega_says_what_to_fix() {
+        let m = material_from_omega("0.1,0.2,0.3,0.4,0.5,0.6").expect("valid ω");
+        let n = m.to_normalized();
+        for (k, want) in [0.1, 0.2, 0.3, 0.4, 0.5, 0.6].iter().enumerate() {
+            assert!((n[k] - want).abs() < 1e-9, "component {k}: {}", n[k]);
+        }
+        let few = material_from_omega("0.1,0.2").expect_err("two numbers");
+        assert!(few.to_string().contains("6 comma-separated"), "{few}");
+        let word = material_from_omega("0.1,0.2,x,0.4,0.5,0.6").expect_err("not a number");
+        assert!(word.to_string().contains("component 3"), "{word}");
+        assert!(material_from_omega("0.1,0.2,1.5,0.4,0.5,0.6").is_err());
+        assert!(material_from_omega("0.1,0.2,NaN,0.4,0.5,0.6").is_err());
+    }
+
+    #[test]
+    fn poses_resolve_from_frames_and_files() -> anyhow::Result<()> {
+        assert_eq!(resolve_pose(None, None)?, Pose::zero());
+        let frames = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
+        assert_eq!(resolve_pose(Some("7"), None)?, frames[7]);
+        let err = resolve_pose(Some("240"), None).expect_err("past the end");
+        assert!(err.to_string().contains("239"), "{err}");
+        let dir = tempfile::tempdir()?;
+        let file = dir.path().join("p.json");
+        garmatnet_core::write_poses_json(&file, &frames[..2])?;
+        let file = file.to_str().expect("utf-8 path");
+        assert_eq!(resolve_pose(Some(file), Some(1))?, frames[1]);
+        assert!(resolve_pose(Some(file), Some(2)).is_err());
+        assert!(resolve_pose(Some("/no/such/poses.json"), None).is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn materials_resolve_from_omega_names_values_or_the_default() -> anyhow::Result<()> {
+        let silk = Material::preset("Silk Chiffon")?;
+        assert_eq!(resolve_material(None, None, "silk chiffon")?, silk);
+        assert_eq!(
+            resolve_material(Some("Silk Chiffon"), None, "denim heavy")?,
+            silk
+        );
+        let from_values = resolve_material(Some(&silk.to_string()), None, "denim heavy")?;
+        assert_eq!(from_values, silk);
+        let omega = "0.5,0.5,0.5,0.5,0.5,0.5";
+        assert_eq!(
+            resolve_material(Some("Silk Chiffon"), Some(omega), "x")?,
+            material_from_omega(omega)?,
+            "ω wins over a name"
+        );
+        let err = resolve_material(Some("sillk chifon"), None, "x").expect_err("typo");
+        assert!(err.to_string().contains("Silk Chiffon"), "{err}");
+        Ok(())
+    }
+
+    #[test]
+    fn formats_come_from_extensions() {
+        assert_eq!(
+            OutputFormat::from_path(Path::new("a/b.GLB")).ok(),
+            Some(OutputFormat::Glb)
+        );
+        assert_eq!(
+            OutputFormat::from_path(Path::new("b.png")).ok(),
+            Some(OutputFormat::Png)
+        );
+        let err = OutputFormat::from_path(Path::new("b.stl")).expect_err("stl");
+        assert!(
+            err.to_string().contains(".obj, .glb, .ply or .png"),
+            "{err}"
+        );
+        assert!(OutputFormat::from_path(Path::new("noext")).is_err());
+    }
+
+    #[test]
+    fn every_format_writes_a_readable_file_and_bad_paths_leave_nothing() -> anyhow::Result<()> {
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(Resolution::Coarse, &body)?;
+        let body_mesh = body.pose(&Pose::zero()).mesh();
+        let view = DrapeView {
+            body: &body_mesh,
+            garment: &garment.rest,
+            garment_colors: None,
+        };
+        let dir = tempfile::tempdir()?;
+        for name in ["g.obj", "g.glb", "g.ply", "g.png"] {
+            let path = dir.path().join(name);
+            view.write(&path)?;
+            assert!(std::fs::metadata(&path)?.len() > 100, "{name} is empty");
+        }
+        let back = garmatnet_core::read_obj(dir.path().join("g.obj"))?;
+        assert_eq!(back.vertices.len(), garment.vertex_count());
+        let png = image::open(dir.path().join("g.png"))?.to_rgb8();
+        let garment_pixels = png
+            .pixels()
+            .filter(|p| p.0[2] > p.0[0] + 40) // the blue garment
+            .count();
+        assert!(
+            garment_pixels > 1000,
+            "garment barely visible: {garment_pixels} px"
+        );
+        assert!(view.write(&dir.path().join("missing/g.obj")).is_err());
+        assert!(!dir.path().join("missing").exists());
+        Ok(())
+    }
+
+    #[test]
+    fn vertex_errors_are_distances_in_millimetres() {
+        let a = [Vec3::zeros(), Vec3::new(0.0, 0.003, 0.004)];
+        let b = [Vec3::new(0.001, 0.0, 0.0), Vec3::zeros()];
+        let e = vertex_errors_mm(&a, &b).expect("same length");
+        assert!(
+            (e[0] - 1.0).abs() < 1e-9 && (e[1] - 5.0).abs() < 1e-9,
+            "{e:?}"
+        );
+        assert!(vertex_errors_mm(&a, &b[..1]).is_err());
+    }
+}
