@@ -35,6 +35,9 @@ enum Command {
     TrainBaseline(cli::train::TrainBaselineArgs),
     /// Evaluate a model on its held-out split and write the report.
     Eval(cli::eval::EvalArgs),
+    /// Run time against error: the simulator at several budgets, GarMatNet variants and
+    /// the baseline on the same held-out samples (bench.json, bench.md, pareto.png).
+    Bench(cli::bench::BenchArgs),
     /// Reproduce Table 3: one model per weight controller α.
     SweepAlpha(cli::train::SweepAlphaArgs),
 }
@@ -52,5 +55,6 @@ fn main() -> anyhow::Result<()> {
         Command::TrainBaseline(args) => cli::train::run_train_baseline(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::SweepAlpha(args) => cli::train::run_sweep_alpha(args),
+        Command::Bench(args) => cli::bench::run(args),
     }
 }

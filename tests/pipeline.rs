@@ -93,5 +93,60 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         }
     }
     assert!(dir.join("report/report.md").exists());
+
+    // The harness: the simulator at the dataset's own budget (10 here), warm-started from the
+    // previous frame's ground truth, must reproduce the stored sample.
+    garmatnet(
+        &[
+            "bench",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--variant",
+            "again=model.safetensors",
+            "--baseline",
+            "baseline",
+            "--out",
+            "bench",
+            "--samples",
+            "4",
+            "--sim-samples",
+            "1",
+            "--sim-budgets",
+            "2",
+            "--batch",
+            "8",
+            "--repeats",
+            "1",
+        ],
+        dir,
+    )?;
+    let bench: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("bench/bench.json"))?)?;
+    let rows = bench["rows"].as_array().expect("rows");
+    let find = |method: &str, batch: u64| {
+        rows.iter()
+            .find(|r| r["method"] == method && r["batch"] == batch)
+            .unwrap_or_else(|| panic!("no row {method} x{batch} in {rows:?}"))
+    };
+    let reference = find("simulator ≤ 10 it (reference)", 1);
+    assert!(
+        reference["error_mm"].as_f64().unwrap() < 1e-3,
+        "{reference}"
+    );
+    assert!(find("simulator ≤ 2 it", 1)["error_mm"].as_f64().unwrap() > 0.0);
+    for method in ["GarMatNet full", "GarMatNet smooth", "GarMatNet again full"] {
+        for batch in [1, 8] {
+            let row = find(method, batch);
+            assert!(row["ms_per_frame"].as_f64().unwrap() > 0.0, "{row}");
+            assert!(row["error_mm"].as_f64().unwrap().is_finite(), "{row}");
+        }
+    }
+    find("TailorNet-style baseline", 1);
+    assert!(rows.iter().any(|r| r["pareto"] == true));
+    for file in ["bench.md", "pareto.png"] {
+        assert!(dir.join("bench").join(file).exists(), "{file}");
+    }
     Ok(())
 }

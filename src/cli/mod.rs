@@ -1,5 +1,6 @@
 //! The `garmatnet` command line: one file per subcommand.
 
+pub mod bench;
 pub mod body;
 pub mod dataset;
 pub mod drape;

@@ -30,6 +30,7 @@ pub mod dataset_loader;
 pub mod error;
 pub mod evaluation;
 mod figures;
+pub mod harness;
 pub mod plots;
 pub mod report;
 pub mod showcase;
@@ -50,7 +51,8 @@ pub use dataset_loader::{
 };
 pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
-pub use plots::{Series, line_chart};
+pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
+pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use report::{
     ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
     Timing,

@@ -119,9 +119,165 @@ pub fn line_chart(
     Ok(garmatnet_core::render::save_png(path, &image)?)
 }
 
+/// One labelled point of a [`pareto_chart`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParetoPoint {
+    /// Text drawn next to the point.
+    pub label: String,
+    /// Index into the chart's group names (colour and legend).
+    pub group: usize,
+    /// Horizontal value (> 0; the axis is logarithmic).
+    pub x: f64,
+    /// Vertical value.
+    pub y: f64,
+    /// Drawn larger and outlined (e.g. on the Pareto front).
+    pub highlight: bool,
+}
+
+/// Draws labelled points on a logarithmic x axis (run time against error) and saves the PNG
+/// at `path` (atomically). Points with a non-positive or non-finite coordinate are left out.
+///
+/// # Errors
+/// [`Error::Plot`] if drawing fails; [`Error::Core`] (I/O) if the file cannot be written.
+pub fn pareto_chart(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    points: &[ParetoPoint],
+    groups: &[&str],
+    (width, height): (u32, u32),
+) -> Result<()> {
+    let plot_error = |message: String| Error::Plot {
+        path: path.to_owned(),
+        message,
+    };
+    ensure_font().map_err(plot_error)?;
+    let shown: Vec<&ParetoPoint> = points
+        .iter()
+        .filter(|p| p.x > 0.0 && p.x.is_finite() && p.y.is_finite())
+        .collect();
+    let (mut x0, mut x1, mut y1) = (f64::INFINITY, 0.0f64, 0.0f64);
+    for p in &shown {
+        x0 = x0.min(p.x);
+        x1 = x1.max(p.x);
+        y1 = y1.max(p.y);
+    }
+    if shown.is_empty() {
+        (x0, x1) = (0.1, 10.0);
+    }
+    let (x0, x1) = (x0 / 2.0, x1 * 4.0);
+    let y1 = if y1 > 0.0 { y1 * 1.12 } else { 1.0 };
+    let mut buffer = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(14)
+            .x_label_area_size(44)
+            .y_label_area_size(56)
+            .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)
+            .map_err(|e| plot_error(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| plot_error(e.to_string()))?;
+        let colours = [
+            RGBColor(210, 50, 40),
+            RGBColor(40, 90, 200),
+            RGBColor(40, 160, 80),
+            RGBColor(120, 120, 120),
+        ];
+        for (g, name) in groups.iter().enumerate() {
+            let colour = colours[g % colours.len()];
+            let members: Vec<&&ParetoPoint> = shown.iter().filter(|p| p.group == g).collect();
+            if members.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(members.iter().map(|p| {
+                    let size = if p.highlight { 6 } else { 4 };
+                    Circle::new((p.x, p.y), size, colour.filled())
+                }))
+                .map_err(|e| plot_error(e.to_string()))?
+                .label(*name)
+                .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
+            chart
+                .draw_series(
+                    members
+                        .iter()
+                        .filter(|p| p.highlight)
+                        .map(|p| Circle::new((p.x, p.y), 9, BLACK.stroke_width(1))),
+                )
+                .map_err(|e| plot_error(e.to_string()))?;
+            chart
+                .draw_series(members.iter().map(|p| {
+                    Text::new(
+                        p.label.clone(),
+                        (p.x * 1.12, p.y),
+                        ("sans-serif", 12).into_font().color(&colour),
+                    )
+                }))
+                .map_err(|e| plot_error(e.to_string()))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(|e| plot_error(e.to_string()))?;
+        root.present().map_err(|e| plot_error(e.to_string()))?;
+    }
+    let image = RgbImage::from_raw(width, height, buffer)
+        .ok_or_else(|| plot_error("the pixel buffer has the wrong size".into()))?;
+    Ok(garmatnet_core::render::save_png(path, &image)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pareto_chart_renders_points_on_a_log_axis() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pareto.png");
+        let point = |label: &str, group, x, y, highlight| ParetoPoint {
+            label: label.into(),
+            group,
+            x,
+            y,
+            highlight,
+        };
+        let points = vec![
+            point("simulator", 0, 3000.0, 0.0, true),
+            point("GarMatNet full", 1, 5.0, 4.0, true),
+            point("baseline", 2, 4.0, 9.0, false),
+            point("broken", 1, f64::NAN, 1.0, false),
+        ];
+        pareto_chart(
+            &path,
+            "t",
+            "ms",
+            "mm",
+            &points,
+            &["simulator", "GarMatNet", "baseline"],
+            (640, 400),
+        )
+        .unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        let red = img.pixels().filter(|p| p.0[0] > 180 && p.0[1] < 90).count();
+        let blue = img.pixels().filter(|p| p.0[2] > 180 && p.0[0] < 90).count();
+        assert!(
+            red > 20 && blue > 20,
+            "points missing: red {red}, blue {blue}"
+        );
+    }
 
     #[test]
     fn chart_with_text_renders_to_png() {

@@ -1,0 +1,608 @@
+//! The run-time-against-error harness behind `garmatnet bench`. On the same held-out samples
+//! (target materials × held-out poses of a model's split) it measures milliseconds per frame
+//! and the mean per-vertex error (mm) against the dataset's ground truth of
+//! - the simulator at several Newton-iteration budgets, warm-started from the previous
+//!   frame's ground truth as an interactive application would run it, up to the converged
+//!   reference the dataset was generated with;
+//! - GarMatNet at `Detail::Full` and `Detail::Smooth`, batch 1 and batched, on every device
+//!   asked for, for the main model and any variants (other hidden sizes, low-rank heads);
+//! - the TailorNet-style baseline (one pose-only model per target material).
+//!
+//! Every network output goes through the same body push-out as [`Predictor::predict`].
+//! Results are written as `bench.json`, `bench.md` and `pareto.png` (log-scale time axis).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use garmatnet_core::{Material, Pose, Real, Vec3};
+use garmatnet_model::{Detail, GarMatNetModel, Predictor, PushOut, push_out, select_device};
+use garmatnet_sim::{SequenceResume, SequenceSettings, drape_sequence};
+use serde::{Deserialize, Serialize};
+
+use crate::baseline::Baseline;
+use crate::dataset_loader::{SampleKey, TrainingDataset};
+use crate::error::{Error, Result};
+use crate::evaluation::predict_baseline;
+use crate::plots::{ParetoPoint, pareto_chart};
+use crate::split::Split;
+use crate::trainer::split_path;
+
+/// What to measure.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BenchConfig {
+    /// Devices the networks run on (`cpu`, `gpu`); one that this build or machine lacks is
+    /// skipped and listed in [`BenchReport::skipped`].
+    pub devices: Vec<String>,
+    /// Held-out samples the networks are measured on (spread evenly over the test set).
+    pub samples: usize,
+    /// How many of those the simulator is run on (it is ~1000× slower).
+    pub sim_samples: usize,
+    /// Newton-iteration budgets of the simulator's final converge; budgets at or above the
+    /// dataset's own cap give the converged reference.
+    pub sim_budgets: Vec<usize>,
+    /// Batch size of the batched rows (the samples repeated to fill it).
+    pub batch: usize,
+    /// Timed repetitions of every batch-1 prediction (the median is reported).
+    pub repeats: usize,
+}
+
+impl Default for BenchConfig {
+    fn default() -> Self {
+        Self {
+            devices: vec!["cpu".into()],
+            samples: 16,
+            sim_samples: 3,
+            sim_budgets: vec![4, 10, 25, 50, 100, 300],
+            batch: 64,
+            repeats: 5,
+        }
+    }
+}
+
+/// The files `garmatnet bench` reads and where it writes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchInputs {
+    /// The dataset directory the models were trained on.
+    pub data_dir: PathBuf,
+    /// The main model; its split (next to it) chooses the held-out samples.
+    pub model: PathBuf,
+    /// More models on the same template, each with a display name (e.g. `hidden 256`,
+    /// `rank 64`).
+    pub variants: Vec<(String, PathBuf)>,
+    /// A baseline directory from `garmatnet train-baseline`.
+    pub baseline: Option<PathBuf>,
+    /// Output directory.
+    pub out_dir: PathBuf,
+}
+
+/// One measured configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BenchRow {
+    /// What ran, e.g. `GarMatNet full` or `simulator ≤ 25 it`.
+    pub method: String,
+    /// `simulator`, `garmatnet` or `baseline`.
+    pub family: String,
+    /// `cpu` or `gpu` (the simulator: `cpu, 1 thread`).
+    pub device: String,
+    /// Frames per call.
+    pub batch: usize,
+    /// Wall-clock milliseconds per frame (median for batch 1).
+    pub ms_per_frame: Real,
+    /// Mean per-vertex Euclidean error against the ground truth (mm).
+    pub error_mm: Real,
+    /// Samples the error is averaged over.
+    pub samples: usize,
+    /// Size of the model file(s) (MB), for networks.
+    pub size_mb: Option<Real>,
+    /// Whether no other row is both faster and more accurate.
+    pub pareto: bool,
+}
+
+/// Everything `garmatnet bench` measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BenchReport {
+    /// The dataset's fingerprint.
+    pub dataset_hash: String,
+    /// The held-out samples measured (`m{material}_p{pose}` stems), networks first, the
+    /// simulator's are the first [`BenchConfig::sim_samples`].
+    pub samples: Vec<String>,
+    /// The measurements, fastest first.
+    pub rows: Vec<BenchRow>,
+    /// What could not be measured, and why.
+    pub skipped: Vec<String>,
+    /// Worker threads the CPU backend could use.
+    pub threads: usize,
+}
+
+/// Runs the harness and writes `bench.json`, `bench.md` and `pareto.png` into
+/// `inputs.out_dir`.
+///
+/// # Errors
+/// [`Error::Split`] if the main model has no split; dataset, model and baseline loading
+/// errors; [`Error::InvalidConfig`] for zero samples, budgets, batch or repeats.
+pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchReport> {
+    if config.samples == 0 || config.batch == 0 || config.repeats == 0 {
+        return Err(Error::InvalidConfig(
+            "bench samples, batch and repeats must be at least 1".into(),
+        ));
+    }
+    let data = TrainingDataset::open(&inputs.data_dir, true)?;
+    let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
+    let keys = choose_samples(&split.comparison_test(), config.samples);
+    if keys.is_empty() {
+        return Err(Error::Split {
+            path: split_path(&inputs.model),
+            message: "no held-out sample of a target material after the first frame".into(),
+        });
+    }
+    std::fs::create_dir_all(&inputs.out_dir).map_err(|e| Error::io(&inputs.out_dir, e))?;
+    let spec = data.spec();
+    let mut cases = Vec::with_capacity(keys.len());
+    for &key in &keys {
+        let omega = spec.materials[key.material].omega;
+        cases.push(Case {
+            key,
+            pose: spec.poses[key.pose].clone(),
+            material: Material::from_array(omega)?,
+            truth: data.truth(key)?.simulated,
+        });
+    }
+    let mut rows = Vec::new();
+    let mut skipped = Vec::new();
+
+    rows.extend(bench_simulator(
+        &data,
+        &cases[..config.sim_samples.min(cases.len())],
+        config,
+    )?);
+
+    let mut models = vec![("GarMatNet".to_owned(), inputs.model.clone())];
+    models.extend(
+        inputs
+            .variants
+            .iter()
+            .map(|(name, path)| (format!("GarMatNet {name}"), path.clone())),
+    );
+    for device_name in &config.devices {
+        let device = match select_device(device_name) {
+            Ok(d) => d,
+            Err(e) => {
+                skipped.push(format!("device {device_name}: {e}"));
+                continue;
+            }
+        };
+        for (name, path) in &models {
+            let model = GarMatNetModel::load(path, &device)?;
+            model.ensure_template(data.template_hash(), data.vertex_count())?;
+            let size_mb = file_mb(path);
+            let predictor =
+                Predictor::for_garment(model, data.garment(), data.body().clone(), &device)?;
+            for detail in [Detail::Full, Detail::Smooth] {
+                let label = format!("{name} {detail}");
+                rows.extend(bench_network(
+                    &predictor,
+                    &data,
+                    &cases,
+                    detail,
+                    config,
+                    &label,
+                    device_name,
+                    size_mb,
+                )?);
+            }
+        }
+    }
+
+    if let Some(dir) = &inputs.baseline {
+        match bench_baseline(dir, &data, &cases, config)? {
+            Ok(row) => rows.push(row),
+            Err(why) => skipped.push(why),
+        }
+    }
+
+    mark_pareto(&mut rows);
+    rows.sort_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame));
+    let report = BenchReport {
+        dataset_hash: data.dataset_hash().to_owned(),
+        samples: keys
+            .iter()
+            .map(|k| garmatnet_sim::sample_stem(k.material, k.pose))
+            .collect(),
+        rows,
+        skipped,
+        threads: std::thread::available_parallelism().map_or(1, usize::from),
+    };
+    write_report(&inputs.out_dir, &report)?;
+    Ok(report)
+}
+
+/// One held-out sample with its inputs and ground truth.
+struct Case {
+    key: SampleKey,
+    pose: Pose,
+    material: Material,
+    truth: Vec<Vec3>,
+}
+
+/// Up to `count` keys spread evenly over `test`, skipping first frames (the simulator needs
+/// the previous frame to warm-start from).
+fn choose_samples(test: &[SampleKey], count: usize) -> Vec<SampleKey> {
+    let usable: Vec<SampleKey> = test.iter().copied().filter(|k| k.pose >= 1).collect();
+    if usable.len() <= count {
+        return usable;
+    }
+    (0..count)
+        .map(|i| usable[i * usable.len() / count])
+        .collect()
+}
+
+fn mean_error_mm(predicted: &[Vec3], truth: &[Vec3]) -> Real {
+    let sum: Real = predicted
+        .iter()
+        .zip(truth)
+        .map(|(p, t)| (p - t).norm())
+        .sum();
+    1e3 * sum / truth.len().max(1) as Real
+}
+
+fn median(mut values: Vec<Real>) -> Real {
+    values.sort_by(Real::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(Real::NAN)
+}
+
+fn file_mb(path: &Path) -> Option<Real> {
+    std::fs::metadata(path).ok().map(|m| m.len() as Real / 1e6)
+}
+
+fn bench_simulator(
+    data: &TrainingDataset,
+    cases: &[Case],
+    config: &BenchConfig,
+) -> Result<Vec<BenchRow>> {
+    if cases.is_empty() {
+        return Ok(Vec::new());
+    }
+    let reference: SequenceSettings =
+        serde_json::from_value(data.spec().solver.clone()).map_err(|e| Error::Dataset {
+            dir: data.dir().to_owned(),
+            message: format!("the manifest's solver settings do not parse: {e}"),
+        })?;
+    let cap = reference.drape.max_iterations;
+    let mut budgets: Vec<usize> = config
+        .sim_budgets
+        .iter()
+        .map(|&b| b.clamp(1, cap))
+        .collect();
+    budgets.push(cap);
+    budgets.sort_unstable();
+    budgets.dedup();
+    let mut rows = Vec::new();
+    for budget in budgets {
+        let mut settings = reference.clone();
+        settings.drape.max_iterations = budget;
+        let (mut ms, mut err) = (Vec::new(), 0.0);
+        for case in cases {
+            let previous = data.truth(SampleKey {
+                material: case.key.material,
+                pose: case.key.pose - 1,
+            })?;
+            let mut result = Vec::new();
+            let started = Instant::now();
+            drape_sequence(
+                data.garment(),
+                data.body(),
+                &case.material,
+                &data.spec().poses[..=case.key.pose],
+                &settings,
+                Some(SequenceResume {
+                    next: case.key.pose,
+                    positions: previous.simulated,
+                }),
+                |_, x, _| {
+                    result = x.to_vec();
+                    Ok(())
+                },
+            )?;
+            ms.push(started.elapsed().as_secs_f64() * 1e3);
+            err += mean_error_mm(&result, &case.truth);
+        }
+        let method = if budget == cap {
+            format!("simulator ≤ {budget} it (reference)")
+        } else {
+            format!("simulator ≤ {budget} it")
+        };
+        rows.push(BenchRow {
+            method,
+            family: "simulator".into(),
+            device: "cpu, 1 thread".into(),
+            batch: 1,
+            ms_per_frame: ms.iter().sum::<Real>() / ms.len() as Real,
+            error_mm: err / cases.len() as Real,
+            samples: cases.len(),
+            size_mb: None,
+            pareto: false,
+        });
+    }
+    Ok(rows)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bench_network(
+    predictor: &Predictor,
+    data: &TrainingDataset,
+    cases: &[Case],
+    detail: Detail,
+    config: &BenchConfig,
+    label: &str,
+    device: &str,
+    size_mb: Option<Real>,
+) -> Result<Vec<BenchRow>> {
+    // Warm-up: the first call allocates and (on a GPU) compiles kernels.
+    predictor.predict(&cases[0].pose, &cases[0].material, detail)?;
+    let mut times = Vec::new();
+    let mut err = 0.0;
+    for case in cases {
+        for r in 0..config.repeats {
+            let started = Instant::now();
+            let mesh = predictor.predict(&case.pose, &case.material, detail)?;
+            times.push(started.elapsed().as_secs_f64() * 1e3);
+            if r == 0 {
+                err += mean_error_mm(&mesh.vertices, &case.truth);
+            }
+        }
+    }
+    let batch1 = BenchRow {
+        method: label.to_owned(),
+        family: "garmatnet".into(),
+        device: device.to_owned(),
+        batch: 1,
+        ms_per_frame: median(times),
+        error_mm: err / cases.len() as Real,
+        samples: cases.len(),
+        size_mb,
+        pareto: false,
+    };
+
+    // Batched: the samples repeated to fill the batch, pushed out of their posed bodies.
+    let items: Vec<(Pose, [Real; 6])> = (0..config.batch)
+        .map(|i| {
+            let c = &cases[i % cases.len()];
+            (c.pose.clone(), c.material.to_normalized())
+        })
+        .collect();
+    let bodies: Vec<_> = cases.iter().map(|c| data.body().pose(&c.pose)).collect();
+    let epsilon = PushOut::default().epsilon;
+    let _ = predictor.predict_batch(&items[..1], detail)?;
+    let started = Instant::now();
+    let mut meshes = predictor.predict_batch(&items, detail)?;
+    for (i, mesh) in meshes.iter_mut().enumerate() {
+        let _ = push_out(&mut mesh.vertices, &bodies[i % cases.len()], epsilon);
+    }
+    let ms = started.elapsed().as_secs_f64() * 1e3 / items.len() as Real;
+    let batched_err = cases
+        .iter()
+        .zip(&meshes)
+        .map(|(c, m)| mean_error_mm(&m.vertices, &c.truth))
+        .sum::<Real>()
+        / cases.len() as Real;
+    Ok(vec![
+        batch1,
+        BenchRow {
+            method: label.to_owned(),
+            family: "garmatnet".into(),
+            device: device.to_owned(),
+            batch: items.len(),
+            ms_per_frame: ms,
+            error_mm: batched_err,
+            samples: cases.len(),
+            size_mb,
+            pareto: false,
+        },
+    ])
+}
+
+/// The baseline's batch-1 row, or why it could not be measured.
+fn bench_baseline(
+    dir: &Path,
+    data: &TrainingDataset,
+    cases: &[Case],
+    config: &BenchConfig,
+) -> Result<std::result::Result<BenchRow, String>> {
+    let device = select_device("cpu")?;
+    let baseline = Baseline::load(dir, &device)?;
+    if baseline.manifest.template_hash != data.template_hash() {
+        return Err(Error::Dataset {
+            dir: data.dir().to_owned(),
+            message: "the baseline was trained for another garment template".into(),
+        });
+    }
+    let epsilon = PushOut::default().epsilon;
+    let (mut times, mut err, mut count) = (Vec::new(), 0.0, 0);
+    for case in cases {
+        let Some(net) = baseline
+            .materials
+            .iter()
+            .find(|m| m.material == case.key.material)
+        else {
+            continue;
+        };
+        let posed = data.body().pose(&case.pose);
+        let truth = data.truth(case.key)?;
+        for r in 0..config.repeats {
+            let started = Instant::now();
+            let prediction = predict_baseline(net, data, &[case.key], &device)?.remove(0);
+            let mut garment: Vec<Vec3> = truth
+                .body_points
+                .iter()
+                .zip(prediction.d_fitting.iter().zip(&prediction.d_local))
+                .map(|(b, (f, l))| b + (f + l))
+                .collect();
+            let _ = push_out(&mut garment, &posed, epsilon);
+            times.push(started.elapsed().as_secs_f64() * 1e3);
+            if r == 0 {
+                err += mean_error_mm(&garment, &case.truth);
+                count += 1;
+            }
+        }
+    }
+    if count == 0 {
+        return Ok(Err(format!(
+            "baseline {}: it has no net for the measured samples' materials",
+            dir.display()
+        )));
+    }
+    Ok(Ok(BenchRow {
+        method: "TailorNet-style baseline".into(),
+        family: "baseline".into(),
+        device: "cpu".into(),
+        batch: 1,
+        ms_per_frame: median(times),
+        error_mm: err / count as Real,
+        samples: count,
+        size_mb: dir_mb(dir),
+        pareto: false,
+    }))
+}
+
+fn dir_mb(dir: &Path) -> Option<Real> {
+    let entries = std::fs::read_dir(dir).ok()?;
+    let bytes: u64 = entries
+        .flatten()
+        .filter_map(|e| e.metadata().ok())
+        .filter(std::fs::Metadata::is_file)
+        .map(|m| m.len())
+        .sum();
+    Some(bytes as Real / 1e6)
+}
+
+/// Marks the rows no other row beats on both time and error.
+fn mark_pareto(rows: &mut [BenchRow]) {
+    let points: Vec<(Real, Real)> = rows.iter().map(|r| (r.ms_per_frame, r.error_mm)).collect();
+    for (i, row) in rows.iter_mut().enumerate() {
+        let (t, e) = points[i];
+        row.pareto = !points
+            .iter()
+            .enumerate()
+            .any(|(j, &(tj, ej))| j != i && tj <= t && ej <= e && (tj < t || ej < e));
+    }
+}
+
+fn write_report(dir: &Path, report: &BenchReport) -> Result<()> {
+    let json = serde_json::to_vec_pretty(report)
+        .map_err(|e| Error::InvalidConfig(format!("bench report does not serialise: {e}")))?;
+    garmatnet_core::write_bytes_atomic(dir.join("bench.json"), &json)?;
+    garmatnet_core::write_bytes_atomic(dir.join("bench.md"), markdown(report).as_bytes())?;
+    let points: Vec<ParetoPoint> = report
+        .rows
+        .iter()
+        .map(|r| ParetoPoint {
+            label: if r.batch > 1 {
+                format!("{} ×{} {}", r.method, r.batch, r.device)
+            } else {
+                format!("{} {}", r.method, r.device)
+            },
+            group: match r.family.as_str() {
+                "simulator" => 0,
+                "garmatnet" => 1,
+                _ => 2,
+            },
+            x: r.ms_per_frame,
+            y: r.error_mm,
+            highlight: r.pareto,
+        })
+        .collect();
+    pareto_chart(
+        &dir.join("pareto.png"),
+        "Run time against error (held-out samples)",
+        "milliseconds per frame (log scale)",
+        "mean per-vertex error (mm)",
+        &points,
+        &["simulator", "GarMatNet", "baseline"],
+        (1000, 640),
+    )
+}
+
+/// The report as a markdown table, fastest first.
+#[must_use]
+pub fn markdown(report: &BenchReport) -> String {
+    let mut md = String::from(
+        "| method | device | batch | ms/frame | error (mm) | samples | size (MB) | Pareto |\n\
+         |---|---|---:|---:|---:|---:|---:|:---:|\n",
+    );
+    for r in &report.rows {
+        md.push_str(&format!(
+            "| {} | {} | {} | {:.3} | {:.2} | {} | {} | {} |\n",
+            r.method,
+            r.device,
+            r.batch,
+            r.ms_per_frame,
+            r.error_mm,
+            r.samples,
+            r.size_mb.map_or("–".into(), |s| format!("{s:.1}")),
+            if r.pareto { "✓" } else { "" }
+        ));
+    }
+    if !report.skipped.is_empty() {
+        md.push_str("\nNot measured:\n");
+        for s in &report.skipped {
+            md.push_str(&format!("- {s}\n"));
+        }
+    }
+    md.push_str(&format!(
+        "\n{} CPU threads available; samples: {}.\n",
+        report.threads,
+        report.samples.join(", ")
+    ));
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(ms: Real, err: Real) -> BenchRow {
+        BenchRow {
+            method: format!("{ms}/{err}"),
+            family: "garmatnet".into(),
+            device: "cpu".into(),
+            batch: 1,
+            ms_per_frame: ms,
+            error_mm: err,
+            samples: 1,
+            size_mb: None,
+            pareto: false,
+        }
+    }
+
+    #[test]
+    fn pareto_front_keeps_only_undominated_rows() {
+        let mut rows = vec![row(1.0, 9.0), row(2.0, 5.0), row(3.0, 6.0), row(100.0, 0.0)];
+        mark_pareto(&mut rows);
+        let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
+        assert_eq!(front, vec![true, true, false, true]);
+    }
+
+    #[test]
+    fn samples_are_spread_and_skip_first_frames() {
+        let test: Vec<SampleKey> = (0..3)
+            .flat_map(|m| {
+                (0..10).map(move |p| SampleKey {
+                    material: m,
+                    pose: p * 10,
+                })
+            })
+            .collect();
+        let chosen = choose_samples(&test, 6);
+        assert_eq!(chosen.len(), 6);
+        assert!(chosen.iter().all(|k| k.pose >= 1));
+        let materials: std::collections::BTreeSet<usize> =
+            chosen.iter().map(|k| k.material).collect();
+        assert_eq!(
+            materials.len(),
+            3,
+            "every material is represented: {chosen:?}"
+        );
+        assert_eq!(choose_samples(&test[..3], 10).len(), 2);
+    }
+}
