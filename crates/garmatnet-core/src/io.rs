@@ -66,6 +66,44 @@ pub fn write_atomic(
     Ok(())
 }
 
+/// An exclusive OS file lock on `path` (created if missing), held until dropped: the guard
+/// every garmatnet writer of a dataset, model, baseline or report directory holds, so a
+/// second process writing the same output is refused instead of interleaving with it. The
+/// operating system releases the lock when the process dies, so a killed run never leaves a
+/// stale lock behind.
+#[derive(Debug)]
+pub struct OutputLock {
+    _file: std::fs::File,
+}
+
+impl OutputLock {
+    /// Takes the lock at `path`, or fails at once if another holder has it. `what` names
+    /// the output in the error (e.g. `"dataset /data/shirts"`).
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming `path`, with kind `WouldBlock` and a message saying what to do
+    /// when another process holds the lock; with the OS's reason when the file cannot be
+    /// created (missing or unwritable directory).
+    pub fn acquire(path: impl AsRef<Path>, what: &str) -> Result<Self> {
+        let path = path.as_ref();
+        let file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
+        match file.try_lock() {
+            Ok(()) => Ok(Self { _file: file }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(Error::io(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::WouldBlock,
+                    format!(
+                        "another garmatnet process is writing the {what}; wait for it to \
+                         finish or write somewhere else"
+                    ),
+                ),
+            )),
+            Err(std::fs::TryLockError::Error(e)) => Err(Error::io(path, e)),
+        }
+    }
+}
+
 /// Writes `bytes` to `path` atomically (see [`write_atomic`]).
 ///
 /// # Errors
@@ -322,6 +360,50 @@ pub fn write_ply(path: impl AsRef<Path>, mesh: &TriMesh, colors: Option<&[[u8; 3
 mod tests {
     use super::*;
     use crate::rng::SplitMix64;
+
+    #[test]
+    fn an_output_lock_excludes_a_second_holder_until_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(".lock");
+        let first = OutputLock::acquire(&path, "test output").unwrap();
+        let err = OutputLock::acquire(&path, "test output").unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("another garmatnet process is writing the test output"),
+            "{err}"
+        );
+        drop(first);
+        OutputLock::acquire(&path, "test output").unwrap();
+        let missing = OutputLock::acquire(dir.path().join("no/such/.lock"), "x").unwrap_err();
+        assert!(missing.to_string().contains("no/such"), "{missing}");
+    }
+
+    #[test]
+    fn a_failing_writer_such_as_a_full_disk_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.bin");
+        let err = write_atomic(&path, |w| {
+            w.write_all(&[0; 10_000])?;
+            Err(std::io::Error::from(std::io::ErrorKind::StorageFull))
+        })
+        .unwrap_err();
+        assert!(err.to_string().contains("out.bin"), "{err}");
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert!(left.is_empty(), "left behind: {left:?}");
+    }
+
+    #[test]
+    fn writing_to_a_full_device_is_an_error_naming_the_file() {
+        // /dev/full answers every write with ENOSPC, as a full disk does.
+        let full = Path::new("/dev/full");
+        if !full.exists() {
+            return;
+        }
+        let err = std::fs::write(full, [0u8; 64]).unwrap_err();
+        assert_eq!(err.raw_os_error(), Some(28), "ENOSPC");
+        let mapped = Error::io(full, err);
+        assert!(mapped.to_string().contains("/dev/full"), "{mapped}");
+    }
 
     fn parse(text: &str) -> Result<TriMesh> {
         parse_obj(text, Path::new("test.obj"))

@@ -36,12 +36,12 @@
 //! whole pose sequences and can warm-start each pose from the previous one.
 
 use std::collections::BTreeMap;
-use std::fs::{File, TryLockError};
+
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use garmatnet_core::{Error, Result};
+use garmatnet_core::{Error, OutputLock, Result};
 
 use crate::manifest::{
     DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
@@ -128,7 +128,7 @@ pub struct DatasetWriter {
     dir: PathBuf,
     spec: DatasetSpec,
     state: Mutex<WriterState>,
-    _lock: File,
+    _lock: OutputLock,
 }
 
 #[derive(Debug)]
@@ -152,22 +152,7 @@ impl DatasetWriter {
         let dir = dir.as_ref().to_owned();
         spec.validate()?;
         std::fs::create_dir_all(samples_dir(&dir)).map_err(|e| Error::io(&dir, e))?;
-        let lock_path = dir.join(".lock");
-        let lock = File::create(&lock_path).map_err(|e| Error::io(&lock_path, e))?;
-        match lock.try_lock() {
-            Ok(()) => {}
-            Err(TryLockError::WouldBlock) => {
-                return Err(Error::io(
-                    &dir,
-                    std::io::Error::new(
-                        std::io::ErrorKind::WouldBlock,
-                        "another garmatnet writer holds this dataset's lock; wait for it to \
-                         finish or write to another directory",
-                    ),
-                ));
-            }
-            Err(TryLockError::Error(e)) => return Err(Error::io(&lock_path, e)),
-        }
+        let lock = OutputLock::acquire(dir.join(".lock"), &format!("dataset {}", dir.display()))?;
         // Compare through JSON so that floats parsed back from the manifest compare exactly.
         let spec_json = serde_json::to_value(&spec).map_err(|e| Error::io(&dir, e.into()))?;
         let spec: DatasetSpec =

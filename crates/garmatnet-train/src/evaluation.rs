@@ -102,6 +102,10 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let model = load_model(&inputs.model, &data, &device)?;
     let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
     std::fs::create_dir_all(&inputs.out_dir).map_err(|e| Error::io(&inputs.out_dir, e))?;
+    let _lock = garmatnet_core::OutputLock::acquire(
+        inputs.out_dir.join(".lock"),
+        &format!("report {}", inputs.out_dir.display()),
+    )?;
     let spec = data.spec();
     let comparison = split.comparison_test();
 

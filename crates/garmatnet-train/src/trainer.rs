@@ -236,6 +236,14 @@ pub fn train(
     let fitting_norm = fit_normalizer(&train_set.d_fitting, 3 * n)?;
     let local_norm = fit_normalizer(&train_set.d_local, 3 * n)?;
 
+    if let Some(dir) = model_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
+    // One run per model path: its split, checkpoints and model file are written below.
+    let _lock = garmatnet_core::OutputLock::acquire(
+        crate::dataset_loader::sibling(model_path, "lock"),
+        &format!("model {}", model_path.display()),
+    )?;
     let checkpoint = CheckpointDir::for_model(model_path);
     let fingerprint = config.fingerprint(data.dataset_hash());
     let saved = if options.resume {
@@ -545,5 +553,31 @@ pub(crate) mod tests {
         };
         let err = train(&data, &path, &other, &stop).unwrap_err();
         assert!(matches!(err, Error::Checkpoint { .. }), "{err}");
+    }
+
+    #[test]
+    fn a_second_run_on_the_same_model_path_is_refused_while_the_first_holds_it() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let path = dir.path().join("model.safetensors");
+        let held = garmatnet_core::OutputLock::acquire(
+            crate::dataset_loader::sibling(&path, "lock"),
+            "model (held by this test)",
+        )
+        .unwrap();
+        let err = train(&data, &path, &tiny_config(2), &RunOptions::default()).unwrap_err();
+        assert!(
+            err.to_string().contains("another garmatnet process"),
+            "{err}"
+        );
+        assert!(
+            !path.exists() && !split_path(&path).exists(),
+            "nothing written"
+        );
+        drop(held);
+        train(&data, &path, &tiny_config(2), &RunOptions::default()).unwrap();
+        assert!(path.exists());
     }
 }
