@@ -38,6 +38,9 @@ enum Command {
     /// Run time against error: the simulator at several budgets, GarMatNet variants and
     /// the baseline on the same held-out samples (bench.json, bench.md, pareto.png).
     Bench(cli::bench::BenchArgs),
+    /// Numerical stress: many random valid (pose, material) pairs through a model; fails on
+    /// NaN or a vertex a metre from the body.
+    Stress(cli::stress::StressArgs),
     /// Reproduce Table 3: one model per weight controller α.
     SweepAlpha(cli::train::SweepAlphaArgs),
 }
@@ -56,5 +59,6 @@ fn main() -> anyhow::Result<()> {
         Command::Eval(args) => cli::eval::run(args),
         Command::SweepAlpha(args) => cli::train::run_sweep_alpha(args),
         Command::Bench(args) => cli::bench::run(args),
+        Command::Stress(args) => cli::stress::run(args),
     }
 }

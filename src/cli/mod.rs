@@ -7,5 +7,6 @@ pub mod drape;
 pub mod eval;
 pub mod materials;
 pub mod simulate;
+pub mod stress;
 pub mod template;
 pub mod train;

@@ -35,6 +35,7 @@ pub mod plots;
 pub mod report;
 pub mod showcase;
 pub mod split;
+pub mod stress;
 #[cfg(test)]
 mod test_util;
 pub mod trainer;
@@ -63,5 +64,6 @@ pub use showcase::{
     vertex_errors_mm,
 };
 pub use split::{Split, SplitConfig, material_indices};
+pub use stress::{FAR_FROM_BODY, StressReport, stress_predictor};
 pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train};
 pub use training_loop::{DIVERGENCE_LOSS, STD_FLOOR};
