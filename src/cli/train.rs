@@ -46,6 +46,9 @@ pub struct TrainOptions {
     /// Dropout probability.
     #[arg(long)]
     pub dropout: Option<f64>,
+    /// Low-rank output head with this many principal components (smaller, faster model).
+    #[arg(long)]
+    pub rank: Option<usize>,
     /// The weight controller α ∈ [0, 1] (paper §3.6).
     #[arg(long)]
     pub alpha: Option<f64>,
@@ -101,6 +104,9 @@ impl TrainOptions {
         }
         if let Some(v) = self.dropout {
             c.dropout = v;
+        }
+        if self.rank.is_some() {
+            c.output_rank = self.rank;
         }
         if let Some(v) = self.alpha {
             c.alpha = v;

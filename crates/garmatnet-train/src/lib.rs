@@ -31,6 +31,7 @@ pub mod error;
 pub mod evaluation;
 mod figures;
 pub mod harness;
+mod pca;
 pub mod plots;
 pub mod report;
 pub mod showcase;

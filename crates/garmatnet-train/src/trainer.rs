@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use burn::prelude::*;
 use garmatnet_core::DisplacementFrame;
 use garmatnet_model::{
-    GarMatNetConfig, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance, select_device,
+    GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, TemplateInfo,
+    TrainingProvenance, select_device,
 };
 use serde::{Deserialize, Serialize};
 
@@ -49,6 +50,10 @@ pub struct TrainConfig {
     pub hidden: usize,
     /// Dropout probability.
     pub dropout: f64,
+    /// Low-rank output head: the nets output `k` coefficients of a basis initialised with
+    /// the principal components of the normalised training displacements (and fine-tuned
+    /// with the weights). `None` (default): the full `3n`-wide output layer.
+    pub output_rank: Option<usize>,
     /// The weight controller α (paper §3.6).
     pub alpha: f64,
     /// The frame of the predicted displacements.
@@ -76,6 +81,7 @@ impl Default for TrainConfig {
             material_hidden: 64,
             hidden: 512,
             dropout: 0.1,
+            output_rank: None,
             alpha: 0.5,
             displacement_frame: DisplacementFrame::World,
             split: SplitConfig::default(),
@@ -103,7 +109,11 @@ impl TrainConfig {
                 "batch_size and max_epochs must be positive".into(),
             ));
         }
-        self.net_config(1).validate()?;
+        GarMatNetConfig {
+            output_rank: None,
+            ..self.net_config(1)
+        }
+        .validate()?;
         Ok(())
     }
 
@@ -117,6 +127,7 @@ impl TrainConfig {
             self.hidden,
         )
         .with_dropout(self.dropout)
+        .with_output_rank(self.output_rank)
         .with_alpha(self.alpha)
         .with_displacement_frame(self.displacement_frame)
     }
@@ -194,6 +205,26 @@ pub struct TrainSummary {
     pub local: Option<NetSummary>,
     /// Training, dev and test sample counts.
     pub samples: [usize; 3],
+}
+
+/// Rows of the training labels the PCA of a low-rank head uses at most.
+const PCA_MAX_ROWS: usize = 4096;
+
+/// Initialises `net`'s low-rank output basis with the principal components of `labels`.
+fn set_pca_basis(
+    net: &mut GarMatNet,
+    labels: &[f32],
+    norm: &OutputNormalizer,
+    k: usize,
+    device: &Device,
+) -> Result<()> {
+    let dim = norm.dim();
+    let (basis, mean) = crate::pca::pca_basis(labels, dim, norm, k, PCA_MAX_ROWS)?;
+    net.set_output_basis(
+        Tensor::from_data(TensorData::new(basis, [k, dim]), device),
+        Tensor::from_data(TensorData::new(mean, [dim]), device),
+    )?;
+    Ok(())
 }
 
 /// The split file of the model at `model_path`: `{stem}.split.json` next to it.
@@ -305,7 +336,16 @@ pub fn train(
         .merge(state)
     };
     ad.seed(config.seed);
-    let fresh_fitting = net_config.init(&ad);
+    let mut fresh_fitting = net_config.init(&ad);
+    if let Some(k) = config.output_rank {
+        set_pca_basis(
+            &mut fresh_fitting,
+            &train_set.d_fitting,
+            &fitting_norm,
+            k,
+            &ad,
+        )?;
+    }
     let (fitting_net, fitting_progress) = match &saved {
         Some(s) if s.phase == Phase::Local => {
             let done = s.fitting_done.clone().ok_or_else(|| Error::Checkpoint {
@@ -337,7 +377,10 @@ pub fn train(
     summary.fitting = Some(NetSummary::from(&fitting_progress));
 
     ad.seed(config.seed ^ 1);
-    let fresh_local = net_config.init(&ad);
+    let mut fresh_local = net_config.init(&ad);
+    if let Some(k) = config.output_rank {
+        set_pca_basis(&mut fresh_local, &train_set.d_local, &local_norm, k, &ad)?;
+    }
     let mut local_state = CheckpointState {
         phase: Phase::Local,
         fitting_done: Some(fitting_progress.clone()),
@@ -471,6 +514,43 @@ pub(crate) mod tests {
         // 4 non-target materials x 18 non-held-out poses, split 90/10.
         assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
         assert_eq!(s.samples[2], 6 * 20 - 4 * 18);
+    }
+
+    #[test]
+    fn a_low_rank_head_starts_from_pca_and_trains() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let model_path = dir.path().join("rank.safetensors");
+        let config = TrainConfig {
+            output_rank: Some(8),
+            ..tiny_config(25)
+        };
+        let s = train(&data, &model_path, &config, &RunOptions::default()).unwrap();
+        for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
+            assert!(
+                net.best_dev_mse < 0.5 * net.initial_dev_mse,
+                "dev loss {} did not fall well below the untrained {}",
+                net.best_dev_mse,
+                net.initial_dev_mse
+            );
+        }
+        let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
+        assert_eq!(model.fitting.output_rank(), Some(8));
+        assert_eq!(model.local.output_rank(), Some(8));
+        let too_big = TrainConfig {
+            output_rank: Some(100_000),
+            ..tiny_config(1)
+        };
+        let err = train(
+            &data,
+            &dir.path().join("big.safetensors"),
+            &too_big,
+            &RunOptions::default(),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("rank"), "{err}");
     }
 
     #[test]
