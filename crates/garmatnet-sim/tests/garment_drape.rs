@@ -51,14 +51,39 @@ fn quick() -> SequenceSettings {
     }
 }
 
+/// Drapes `garment` in every material through `poses`; asserts no NaN and no vertex more
+/// than 1 mm inside the body at every pose.
+fn assert_stable(body: &CapsuleBody, garment: &Garment, materials: &[Material], poses: &[Pose]) {
+    for m in materials {
+        let stats = drape_sequence(garment, body, m, poses, &quick(), None, |i, x, _| {
+            let posed = body.pose(&poses[i]);
+            assert!(x.iter().all(|p| p.iter().all(|v| v.is_finite())), "{m:?}");
+            let deepest = x.iter().map(|p| -posed.distance(p)).fold(0.0, Real::max);
+            assert!(deepest <= 1e-3, "{m:?}: {deepest}");
+            Ok(())
+        })
+        .unwrap_or_else(|e| panic!("{m:?}: {e}"));
+        assert!(
+            stats
+                .iter()
+                .all(|s| s.max_penetration <= 1e-3 && s.final_residual.is_finite()),
+            "{m:?}"
+        );
+    }
+}
+
+/// The `count` most extreme poses of a seeded motion.
+fn extreme(count: usize) -> Vec<Pose> {
+    let frames = MotionGenerator::new(5, 200).generate();
+    extreme_poses(&frames, count)
+        .into_iter()
+        .map(|i| frames[i].clone())
+        .collect()
+}
+
 #[test]
 fn stress_materials_on_extreme_poses_stay_finite_and_outside_the_body() {
     let (body, garment) = coarse();
-    let frames = MotionGenerator::new(5, 40).generate();
-    let poses: Vec<Pose> = extreme_poses(&frames, 2)
-        .into_iter()
-        .map(|i| frames[i].clone())
-        .collect();
     let mid = Material::preset("Cotton Poplin").unwrap();
     let materials = [
         Material::preset("Silk Chiffon").unwrap(),
@@ -69,21 +94,27 @@ fn stress_materials_on_extreme_poses_stay_finite_and_outside_the_body() {
         mid.scaled(1.0, 0.1).unwrap(),
         mid.scaled(1.0, 10.0).unwrap(),
     ];
-    for m in &materials {
-        let stats = drape_sequence(&garment, &body, m, &poses, &quick(), None, |i, x, _| {
-            let posed = body.pose(&poses[i]);
-            assert!(x.iter().all(|p| p.iter().all(|v| v.is_finite())), "{m:?}");
-            let deepest = x.iter().map(|p| -posed.distance(p)).fold(0.0, Real::max);
-            assert!(deepest <= 1e-3, "{m:?}: {deepest}");
-            Ok(())
-        })
-        .unwrap();
-        assert!(
-            stats
-                .iter()
-                .all(|s| s.max_penetration <= 1e-3 && s.final_residual.is_finite())
-        );
+    assert_stable(&body, &garment, &materials, &extreme(2));
+}
+
+/// The full stress matrix: every preset and its stiffness ×0.01/×100 and density ×0.1/×10
+/// variants through the 20 most extreme poses of the generator (coarse template; about ten
+/// minutes on one core). Run: `cargo test --release -p garmatnet-sim --test garment_drape --
+/// --ignored`.
+#[test]
+#[ignore = "the full stress matrix takes minutes; CI runs the sample above"]
+fn full_stress_matrix_every_preset_and_variant_at_the_20_most_extreme_poses() {
+    let (body, garment) = coarse();
+    let mut materials = Vec::new();
+    for preset in garmatnet_core::presets() {
+        let m = preset.material;
+        materials.push(m);
+        for (stiffness, density) in [(0.01, 1.0), (100.0, 1.0), (1.0, 0.1), (1.0, 10.0)] {
+            materials.push(m.scaled(stiffness, density).unwrap());
+        }
     }
+    assert_eq!(materials.len(), 5 * garmatnet_core::presets().len());
+    assert_stable(&body, &garment, &materials, &extreme(20));
 }
 
 #[test]
