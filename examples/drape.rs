@@ -17,7 +17,8 @@ use garmatnet::core::render::{RenderSettings, save_png, side_by_side};
 use garmatnet::model::{Detail, Predictor, default_model_path, select_device};
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
-    DrapeView, comparison_image, resolve_material, resolve_pose, simulate_drape, vertex_errors_mm,
+    DrapeView, comparison_image, resolve_material, resolve_pose, simulate_drape, slug,
+    vertex_errors_mm,
 };
 use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
 
@@ -55,19 +56,6 @@ struct Args {
     /// Also run the simulator for every input: error (mm), speed-up, side-by-side render.
     #[arg(long)]
     compare: bool,
-}
-
-/// A file-name-safe form of a fabric name.
-fn slug(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() {
-                c.to_ascii_lowercase()
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 fn main() -> Result<()> {

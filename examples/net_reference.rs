@@ -13,9 +13,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use burn::prelude::*;
 use clap::Parser;
-use npyz::WriterBuilder;
 use garmatnet::core::{JointLimits, SplitMix64};
 use garmatnet::model::{GarMatNetModel, default_model_path, select_device};
+use npyz::WriterBuilder;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]

@@ -186,11 +186,7 @@ pub fn train_baseline(
     let net =
         BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
     net.validate()?;
-    std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let _lock = garmatnet_core::OutputLock::acquire(
-        out_dir.join(".lock"),
-        &format!("baseline {}", out_dir.display()),
-    )?;
+    let _lock = crate::dataset_loader::create_locked_dir(out_dir, "baseline")?;
     let progress = crate::training_loop::progress_bar(config.max_epochs, config.quiet);
     let mut entries = Vec::new();
     for &m in &split.test_materials {

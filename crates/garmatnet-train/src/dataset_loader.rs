@@ -365,6 +365,16 @@ impl Fnv1a {
     }
 }
 
+/// Creates the output directory `dir` and takes its lock (`dir/.lock`), so no second
+/// process writes into it at the same time. `what` names the output in the error.
+pub(crate) fn create_locked_dir(dir: &Path, what: &str) -> Result<garmatnet_core::OutputLock> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    Ok(garmatnet_core::OutputLock::acquire(
+        dir.join(".lock"),
+        &format!("{what} {}", dir.display()),
+    )?)
+}
+
 /// `PathBuf` of a file next to `model` named `{model stem}.{suffix}`.
 pub(crate) fn sibling(model: &Path, suffix: &str) -> PathBuf {
     let stem = model

@@ -101,11 +101,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let data = TrainingDataset::open(&inputs.data_dir, true)?;
     let model = load_model(&inputs.model, &data, &device)?;
     let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
-    std::fs::create_dir_all(&inputs.out_dir).map_err(|e| Error::io(&inputs.out_dir, e))?;
-    let _lock = garmatnet_core::OutputLock::acquire(
-        inputs.out_dir.join(".lock"),
-        &format!("report {}", inputs.out_dir.display()),
-    )?;
+    let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "report")?;
     let spec = data.spec();
     let comparison = split.comparison_test();
 

@@ -18,20 +18,8 @@ use crate::error::{Error, Result};
 use crate::evaluation::{VertexErrors, predict_baseline, predict_garmatnet};
 use crate::plots::{Series, line_chart};
 use crate::report::SampleErrors;
+use crate::showcase::slug;
 use crate::split::Split;
-
-/// A file-name-safe lowercase form of a material name.
-fn slug(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() {
-                c.to_ascii_lowercase()
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
 
 pub(crate) fn per_pose_plots(
     out_dir: &Path,

@@ -136,11 +136,7 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
             message: "no held-out sample of a target material after the first frame".into(),
         });
     }
-    std::fs::create_dir_all(&inputs.out_dir).map_err(|e| Error::io(&inputs.out_dir, e))?;
-    let _lock = garmatnet_core::OutputLock::acquire(
-        inputs.out_dir.join(".lock"),
-        &format!("benchmark {}", inputs.out_dir.display()),
-    )?;
+    let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "benchmark")?;
     let spec = data.spec();
     let mut cases = Vec::with_capacity(keys.len());
     for &key in &keys {

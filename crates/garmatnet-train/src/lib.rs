@@ -61,7 +61,7 @@ pub use report::{
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeView, OutputFormat, SimulatedDrape,
-    comparison_image, material_from_omega, resolve_material, resolve_pose, simulate_drape,
+    comparison_image, material_from_omega, resolve_material, resolve_pose, simulate_drape, slug,
     vertex_errors_mm,
 };
 pub use split::{Split, SplitConfig, material_indices};

@@ -6,6 +6,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use image::RgbImage;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
@@ -23,6 +24,30 @@ fn ensure_font() -> std::result::Result<(), String> {
                 .map_err(|_| "the embedded font is not a valid TrueType font".to_owned())
         })
         .clone()
+}
+
+/// Draws with `draw` on a white `width × height` bitmap (embedded font registered) and saves
+/// it as a PNG at `path`, atomically.
+fn render_png(
+    path: &Path,
+    (width, height): (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> std::result::Result<(), String>,
+) -> Result<()> {
+    let plot_error = |message: String| Error::Plot {
+        path: path.to_owned(),
+        message,
+    };
+    ensure_font().map_err(plot_error)?;
+    let mut buffer = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(e.to_string()))?;
+        draw(&root).map_err(plot_error)?;
+        root.present().map_err(|e| plot_error(e.to_string()))?;
+    }
+    let image = RgbImage::from_raw(width, height, buffer)
+        .ok_or_else(|| plot_error("the pixel buffer has the wrong size".into()))?;
+    Ok(garmatnet_core::render::save_png(path, &image)?)
 }
 
 /// One line of a chart: a label and `(x, y)` points.
@@ -47,15 +72,7 @@ pub fn line_chart(
     series: &[Series],
     (width, height): (u32, u32),
 ) -> Result<()> {
-    let plot_error = |message: String| Error::Plot {
-        path: path.to_owned(),
-        message,
-    };
-    ensure_font().map_err(plot_error)?;
-    let mut buffer = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(e.to_string()))?;
+    render_png(path, (width, height), |root| {
         let all = series.iter().flat_map(|s| s.points.iter());
         let (mut x0, mut x1, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
         for &(x, y) in all {
@@ -78,14 +95,14 @@ pub fn line_chart(
             .x_label_area_size(40)
             .y_label_area_size(56)
             .build_cartesian_2d(x0..x1, 0.0..y1)
-            .map_err(|e| plot_error(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .x_desc(x_label)
             .y_desc(y_label)
             .label_style(("sans-serif", 14))
             .draw()
-            .map_err(|e| plot_error(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         let colours = [
             RGBColor(40, 90, 200),
             RGBColor(210, 50, 40),
@@ -98,12 +115,12 @@ pub fn line_chart(
                     s.points.iter().copied(),
                     colour.stroke_width(2),
                 ))
-                .map_err(|e| plot_error(e.to_string()))?
+                .map_err(|e| e.to_string())?
                 .label(s.label.clone())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
             chart
                 .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .map_err(|e| plot_error(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
         }
         chart
             .configure_series_labels()
@@ -111,12 +128,9 @@ pub fn line_chart(
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
             .draw()
-            .map_err(|e| plot_error(e.to_string()))?;
-        root.present().map_err(|e| plot_error(e.to_string()))?;
-    }
-    let image = RgbImage::from_raw(width, height, buffer)
-        .ok_or_else(|| plot_error("the pixel buffer has the wrong size".into()))?;
-    Ok(garmatnet_core::render::save_png(path, &image)?)
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    })
 }
 
 /// One labelled point of a [`pareto_chart`].
@@ -148,11 +162,6 @@ pub fn pareto_chart(
     groups: &[&str],
     (width, height): (u32, u32),
 ) -> Result<()> {
-    let plot_error = |message: String| Error::Plot {
-        path: path.to_owned(),
-        message,
-    };
-    ensure_font().map_err(plot_error)?;
     let shown: Vec<&ParetoPoint> = points
         .iter()
         .filter(|p| p.x > 0.0 && p.x.is_finite() && p.y.is_finite())
@@ -168,24 +177,21 @@ pub fn pareto_chart(
     }
     let (x0, x1) = (x0 / 2.0, x1 * 4.0);
     let y1 = if y1 > 0.0 { y1 * 1.12 } else { 1.0 };
-    let mut buffer = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| plot_error(e.to_string()))?;
+    render_png(path, (width, height), |root| {
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
             .margin(14)
             .x_label_area_size(44)
             .y_label_area_size(56)
             .build_cartesian_2d((x0..x1).log_scale(), 0.0..y1)
-            .map_err(|e| plot_error(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .x_desc(x_label)
             .y_desc(y_label)
             .label_style(("sans-serif", 14))
             .draw()
-            .map_err(|e| plot_error(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         let colours = [
             RGBColor(210, 50, 40),
             RGBColor(40, 90, 200),
@@ -203,7 +209,7 @@ pub fn pareto_chart(
                     let size = if p.highlight { 6 } else { 4 };
                     Circle::new((p.x, p.y), size, colour.filled())
                 }))
-                .map_err(|e| plot_error(e.to_string()))?
+                .map_err(|e| e.to_string())?
                 .label(*name)
                 .legend(move |(x, y)| Circle::new((x + 8, y), 5, colour.filled()));
             chart
@@ -213,7 +219,7 @@ pub fn pareto_chart(
                         .filter(|p| p.highlight)
                         .map(|p| Circle::new((p.x, p.y), 9, BLACK.stroke_width(1))),
                 )
-                .map_err(|e| plot_error(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
             chart
                 .draw_series(members.iter().map(|p| {
                     Text::new(
@@ -222,7 +228,7 @@ pub fn pareto_chart(
                         ("sans-serif", 12).into_font().color(&colour),
                     )
                 }))
-                .map_err(|e| plot_error(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
         }
         chart
             .configure_series_labels()
@@ -231,12 +237,9 @@ pub fn pareto_chart(
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
             .draw()
-            .map_err(|e| plot_error(e.to_string()))?;
-        root.present().map_err(|e| plot_error(e.to_string()))?;
-    }
-    let image = RgbImage::from_raw(width, height, buffer)
-        .ok_or_else(|| plot_error("the pixel buffer has the wrong size".into()))?;
-    Ok(garmatnet_core::render::save_png(path, &image)?)
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    })
 }
 
 #[cfg(test)]

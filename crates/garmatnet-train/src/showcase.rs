@@ -80,6 +80,25 @@ pub fn resolve_material(
     }
 }
 
+/// A file-name-safe lowercase form of a name (e.g. a fabric's): ASCII letters and digits
+/// kept, everything else `_`.
+///
+/// ```
+/// assert_eq!(garmatnet_train::showcase::slug("Sherpa Fleece 160"), "sherpa_fleece_160");
+/// ```
+#[must_use]
+pub fn slug(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 /// Parses a normalised material ω: six comma-separated numbers in [0, 1] (structural V/H,
 /// flexion V/H, shear, density on the library's log scale; see
 /// [`Material::to_normalized`]).
