@@ -18,6 +18,7 @@ pub mod material_bounds;
 pub mod material_presets;
 pub mod math;
 pub mod mesh;
+pub mod npy_guard;
 pub mod pose;
 pub mod pose_file;
 pub mod render;

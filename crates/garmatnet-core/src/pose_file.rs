@@ -37,10 +37,8 @@ pub fn read_poses(path: impl AsRef<Path>) -> Result<Vec<Pose>> {
     match ext.as_deref() {
         Some("json") => read_json(path),
         Some("npy") => {
-            let file = File::open(path).map_err(|e| Error::io(path, e))?;
-            let npy = NpyFile::new(BufReader::new(file))
-                .map_err(|e| parse(path, format!("not a valid .npy file: {e}")))?;
-            poses_from_npy(npy, path)
+            let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+            poses_from_npy_bytes(&bytes, path)
         }
         Some("npz") => {
             let file = File::open(path).map_err(|e| Error::io(path, e))?;
@@ -89,18 +87,47 @@ fn read_npz<R: Read + Seek>(reader: R, path: &Path) -> Result<Vec<Pose>> {
     let mut archive = npyz::npz::NpzArchive::new(reader)
         .map_err(|e| parse(path, format!("not a valid .npz (zip) archive: {e}")))?;
     let names: Vec<String> = archive.array_names().map(str::to_owned).collect();
-    let npy = archive
-        .by_name("poses")
-        .map_err(|e| parse(path, format!("cannot read array `poses`: {e}")))?
-        .ok_or_else(|| {
-            parse(
-                path,
-                format!(
-                    "archive has no `poses` array (found: [{}]); AMASS files store poses there",
-                    names.join(", ")
-                ),
-            )
-        })?;
+    if !names.iter().any(|n| n == "poses") {
+        return Err(parse(
+            path,
+            format!(
+                "archive has no `poses` array (found: [{}]); AMASS files store poses there",
+                names.join(", ")
+            ),
+        ));
+    }
+    let member_name = npyz::npz::file_name_from_array_name("poses");
+    let member = archive
+        .zip_archive()
+        .by_name(&member_name)
+        .map_err(|e| parse(path, format!("cannot read array `poses`: {e}")))?;
+    let mut bytes = Vec::new();
+    member
+        .take(MAX_POSE_ARRAY_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| parse(path, format!("cannot read array `poses`: {e}")))?;
+    if bytes.len() as u64 > MAX_POSE_ARRAY_BYTES {
+        return Err(parse(
+            path,
+            format!(
+                "array `poses` decompresses to over {} MB; split the sequence into smaller files",
+                MAX_POSE_ARRAY_BYTES >> 20
+            ),
+        ));
+    }
+    poses_from_npy_bytes(&bytes, path)
+}
+
+/// The largest `poses` array read from an `.npz` (bytes, decompressed): 400,000 SMPL+H
+/// frames in float64, and a guard against zip bombs.
+const MAX_POSE_ARRAY_BYTES: u64 = 512 << 20;
+
+/// Decodes a whole `.npy` file's bytes, its header checked first
+/// ([`crate::npy_guard::plain_npy_header`]).
+fn poses_from_npy_bytes(bytes: &[u8], path: &Path) -> Result<Vec<Pose>> {
+    crate::npy_guard::plain_npy_header(bytes).map_err(|m| parse(path, m))?;
+    let npy =
+        NpyFile::new(bytes).map_err(|e| parse(path, format!("not a valid .npy file: {e}")))?;
     poses_from_npy(npy, path)
 }
 

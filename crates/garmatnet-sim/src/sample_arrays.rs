@@ -1,7 +1,5 @@
 //! The three per-sample point arrays and their `.npy` (float32, `[n, 3]`) files.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use garmatnet_core::{Error, Result};
@@ -103,9 +101,9 @@ pub fn read_points_npy(path: &Path, sample: &str) -> Result<Vec<[f32; 3]>> {
         line: None,
         message: format!("sample {sample}: {message}"),
     };
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    let npy = NpyFile::new(BufReader::new(file))
-        .map_err(|e| parse(format!("not a valid .npy file: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let data_start = garmatnet_core::npy_guard::plain_npy_header(&bytes).map_err(parse)?;
+    let npy = NpyFile::new(&bytes[..]).map_err(|e| parse(format!("not a valid .npy file: {e}")))?;
     let shape = npy.shape().to_vec();
     let rows = match shape[..] {
         [n, 3] if n >= 1 => n,
@@ -124,6 +122,14 @@ pub fn read_points_npy(path: &Path, sample: &str) -> Result<Vec<[f32; 3]>> {
     }
     if npy.order() != Order::C {
         return Err(parse("array is in Fortran order; expected C order".into()));
+    }
+    // Refuse a declared shape the file cannot hold before allocating for it.
+    if rows.saturating_mul(12) > (bytes.len() - data_start) as u64 {
+        return Err(parse(format!(
+            "array data is truncated: shape [{rows}, 3] needs {} bytes, the file has {}",
+            rows.saturating_mul(12),
+            bytes.len() - data_start
+        )));
     }
     let flat = npy
         .into_vec::<f32>()
