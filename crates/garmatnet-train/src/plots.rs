@@ -175,8 +175,31 @@ pub fn pareto_chart(
     if shown.is_empty() {
         (x0, x1) = (0.1, 10.0);
     }
-    let (x0, x1) = (x0 / 2.0, x1 * 4.0);
+    // Room on the right for the labels of the slowest points.
+    let (x0, x1) = (x0 / 2.0, x1 * 40.0);
     let y1 = if y1 > 0.0 { y1 * 1.12 } else { 1.0 };
+    // Label the highlighted points first, then any other whose label would not overlap one
+    // already placed (positions in approximate pixels of the plotting area).
+    let to_px = |p: &ParetoPoint| {
+        let fx = (p.x.ln() - x0.ln()) / (x1.ln() - x0.ln());
+        (fx * f64::from(width), (1.0 - p.y / y1) * f64::from(height))
+    };
+    let mut order: Vec<usize> = (0..shown.len()).collect();
+    order.sort_by_key(|&i| !shown[i].highlight);
+    let mut boxes: Vec<(f64, f64, f64)> = Vec::new();
+    let mut labelled = vec![false; shown.len()];
+    for i in order {
+        let p = shown[i];
+        let (x, y) = to_px(p);
+        let w = 6.5 * p.label.chars().count() as f64;
+        let clear = boxes
+            .iter()
+            .all(|&(bx, by, bw)| x + w < bx || bx + bw < x || (y - by).abs() > 14.0);
+        if p.highlight || clear {
+            boxes.push((x, y, w));
+            labelled[i] = true;
+        }
+    }
     render_png(path, (width, height), |root| {
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
@@ -221,13 +244,19 @@ pub fn pareto_chart(
                 )
                 .map_err(|e| e.to_string())?;
             chart
-                .draw_series(members.iter().map(|p| {
-                    Text::new(
-                        p.label.clone(),
-                        (p.x * 1.12, p.y),
-                        ("sans-serif", 12).into_font().color(&colour),
-                    )
-                }))
+                .draw_series(
+                    shown
+                        .iter()
+                        .enumerate()
+                        .filter(|&(i, p)| p.group == g && labelled[i])
+                        .map(|(_, p)| {
+                            Text::new(
+                                p.label.clone(),
+                                (p.x * 1.12, p.y),
+                                ("sans-serif", 12).into_font().color(&colour),
+                            )
+                        }),
+                )
                 .map_err(|e| e.to_string())?;
         }
         chart
