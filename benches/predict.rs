@@ -2,7 +2,7 @@
 //!
 //! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
 //! batch 1 and 64, `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
-//! the paper-sized nets (hidden 512/64/512); and a 100-character `Scene` with mixed detail
+//! the paper-sized nets (hidden 512/64/512), full-width and with a rank-128 output head; and a 100-character `Scene` with mixed detail
 //! where 10 % of the characters change each frame. Weights are untrained: speed does not
 //! depend on their values.
 
@@ -15,14 +15,20 @@ use garmatnet::model::{
     Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, Scene, TemplateInfo,
 };
 
-fn predictor(resolution: Resolution, device: &Device) -> (Predictor, f64) {
+/// The paper-sized nets for `resolution`, with a low-rank output head of `rank` components
+/// when given; returns the predictor and the weights' size (MB, f32).
+fn predictor(resolution: Resolution, rank: Option<usize>, device: &Device) -> (Predictor, f64) {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(resolution, &body).expect("template");
     device.seed(1);
-    let cfg = GarMatNetConfig::new(garment.vertex_count(), 512, 64, 512);
+    let cfg = GarMatNetConfig::new(garment.vertex_count(), 512, 64, 512).with_output_rank(rank);
     let model = GarMatNetModel::untrained(&cfg, TemplateInfo::of(&garment), device);
-    let n = garment.vertex_count();
-    let params = 2 * (72 * 512 + 512 + 6 * 64 + 64 + (512 + 64) * 512 + 512 + 512 * 3 * n + 3 * n);
+    let n3 = 3 * garment.vertex_count();
+    let head = match rank {
+        Some(k) => 512 * k + k + k * n3 + n3,
+        None => 512 * n3 + n3,
+    };
+    let params = 2 * (72 * 512 + 512 + 6 * 64 + 64 + (512 + 64) * 512 + 512 + head);
     let megabytes = params as f64 * 4.0 / 1e6;
     (
         Predictor::for_garment(model, &garment, body, device).expect("predictor"),
@@ -45,13 +51,22 @@ fn inputs(count: usize) -> Vec<(Pose, Material)> {
 
 fn bench_predict(c: &mut Criterion) {
     let device = Device::flex();
-    for resolution in [Resolution::Default, Resolution::Paper] {
-        let (predictor, mb) = predictor(resolution, &device);
+    for (resolution, rank) in [
+        (Resolution::Default, None),
+        (Resolution::Paper, None),
+        (Resolution::Default, Some(128)),
+        (Resolution::Paper, Some(128)),
+    ] {
+        let (predictor, mb) = predictor(resolution, rank, &device);
+        let name = match rank {
+            Some(k) => format!("{resolution}_rank{k}"),
+            None => resolution.to_string(),
+        };
         eprintln!(
-            "{resolution}: {} vertices, model {mb:.1} MB (f32)",
+            "{name}: {} vertices, model {mb:.1} MB (f32)",
             predictor.vertex_count()
         );
-        let mut group = c.benchmark_group(format!("predict_cpu_{resolution}"));
+        let mut group = c.benchmark_group(format!("predict_cpu_{name}"));
         let one = inputs(1);
         let batch: Vec<_> = inputs(64)
             .into_iter()
@@ -77,7 +92,7 @@ fn bench_predict(c: &mut Criterion) {
 
 fn bench_scene(c: &mut Criterion) {
     let device = Device::flex();
-    let (predictor, _) = predictor(Resolution::Default, &device);
+    let (predictor, _) = predictor(Resolution::Default, None, &device);
     let mut scene = Scene::new();
     let start = inputs(100);
     for (id, (pose, material)) in start.iter().enumerate() {
