@@ -60,6 +60,14 @@ pub fn write_atomic(
         write(&mut buffered).map_err(|e| Error::io(path, e))?;
         buffered.flush().map_err(|e| Error::io(path, e))?;
     }
+    // Temporary files are created owner-only; what we write is an ordinary artefact.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))
+            .map_err(|e| Error::io(path, e))?;
+    }
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     // Dropping `tmp` on the error paths above deletes the temporary file.
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
@@ -376,6 +384,17 @@ mod tests {
         OutputLock::acquire(&path, "test output").unwrap();
         let missing = OutputLock::acquire(dir.path().join("no/such/.lock"), "x").unwrap_err();
         assert!(missing.to_string().contains("no/such"), "{missing}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn written_files_are_readable_by_others_like_any_artefact() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        write_bytes_atomic(&path, b"x").unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o644);
     }
 
     #[test]

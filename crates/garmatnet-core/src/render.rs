@@ -287,19 +287,11 @@ pub fn side_by_side(images: &[RgbImage], background: Color) -> RgbImage {
 /// # Errors
 /// [`Error::Io`] if the directory is missing or not writable.
 pub fn save_png(path: &Path, image: &RgbImage) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(dir, e))?;
+    let mut png = std::io::Cursor::new(Vec::new());
     image
-        .write_to(
-            &mut std::io::BufWriter::new(tmp.as_file()),
-            image::ImageFormat::Png,
-        )
+        .write_to(&mut png, image::ImageFormat::Png)
         .map_err(|e| Error::io(path, std::io::Error::other(e)))?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    crate::io::write_bytes_atomic(path, png.get_ref())
 }
 
 #[cfg(test)]

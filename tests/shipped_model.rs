@@ -1,0 +1,59 @@
+//! The model that ships in `crates/garmatnet-model/models/`: it loads with no files to fetch,
+//! fits the library's T-shirt, answers for any fabric, and survives random valid inputs.
+
+use garmatnet::core::SignedDistance;
+use garmatnet::model::{SHIPPED_MODEL, select_device};
+use garmatnet::train::stress_predictor;
+use garmatnet::{Detail, Material, Predictor};
+
+fn shipped() -> anyhow::Result<Predictor> {
+    // The shipped file itself, whatever $GARMATNET_MODEL says.
+    Ok(Predictor::from_file(SHIPPED_MODEL, &select_device("cpu")?)?)
+}
+
+#[test]
+fn the_shipped_model_drapes_contrasting_fabrics_differently_and_near_the_body() -> anyhow::Result<()>
+{
+    let predictor = shipped()?;
+    let body = predictor.body().expect("from_file keeps the body").clone();
+    let frames = garmatnet::sim::MotionGenerator::new(0, 240).generate();
+    for pose in [&frames[20], &frames[170]] {
+        let posed = body.pose(pose);
+        let mut shirts = Vec::new();
+        for name in ["Silk Chiffon", "Denim Heavy", "Trim Fusible Rigid"] {
+            let mesh = predictor.predict(pose, &Material::preset(name)?, Detail::Full)?;
+            let far = mesh
+                .vertices
+                .iter()
+                .map(|v| posed.distance(v))
+                .fold(0.0, f64::max);
+            let inside = mesh
+                .vertices
+                .iter()
+                .filter(|v| posed.distance(v) < 0.0)
+                .count();
+            assert!(far < 0.3, "{name}: a vertex {far} m from the body");
+            assert_eq!(
+                inside, 0,
+                "{name}: {inside} vertices inside the body after push-out"
+            );
+            shirts.push(mesh.vertices);
+        }
+        let mean_gap = |a: &[garmatnet::core::Vec3], b: &[garmatnet::core::Vec3]| {
+            a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64
+        };
+        assert!(
+            mean_gap(&shirts[0], &shirts[2]) > 0.003,
+            "silk and rigid trim should drape visibly differently"
+        );
+    }
+    Ok(())
+}
+
+#[test]
+fn the_shipped_model_stays_finite_and_near_the_body_on_random_inputs() -> anyhow::Result<()> {
+    // `garmatnet stress --count 10000` runs the same check at full size.
+    let report = stress_predictor(&shipped()?, 500, 11, 50)?;
+    assert!(report.passed(), "{report:?}");
+    Ok(())
+}
