@@ -159,9 +159,8 @@ fn main() -> Result<()> {
         )?;
     }
     println!(
-        "wrote OBJ, GLB and PNG files to {} ({}_fabrics.png: the fabrics side by side)",
-        args.out.display(),
-        "<pose>"
+        "wrote OBJ, GLB and PNG files to {} (<pose>_fabrics.png: the fabrics side by side)",
+        args.out.display()
     );
     Ok(())
 }

@@ -89,7 +89,7 @@ pub fn line_chart(
             x1 = x0 + 1.0;
         }
         let y1 = if y1 > 0.0 { y1 * 1.1 } else { 1.0 };
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 22))
             .margin(12)
             .x_label_area_size(40)
@@ -201,7 +201,7 @@ pub fn pareto_chart(
         }
     }
     render_png(path, (width, height), |root| {
-        let mut chart = ChartBuilder::on(&root)
+        let mut chart = ChartBuilder::on(root)
             .caption(title, ("sans-serif", 22))
             .margin(14)
             .x_label_area_size(44)
