@@ -237,3 +237,77 @@ fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<(
     assert!(!out.exists());
     Ok(())
 }
+
+#[test]
+fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let model = coarse_model(dir.path())?;
+    let model_arg = model.display().to_string();
+    let out = dir.path().join("bench_out");
+    let out_arg = out.display().to_string();
+    let missing_data = dir.path().join("no_data").display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "bench",
+                "--data",
+                &missing_data,
+                "--model",
+                &model_arg,
+                "--out",
+                &out_arg,
+            ],
+            "no_data",
+        ),
+        (
+            vec![
+                "bench",
+                "--data",
+                &missing_data,
+                "--model",
+                &model_arg,
+                "--out",
+                &out_arg,
+                "--variant",
+                "nameonly",
+            ],
+            "NAME=FILE",
+        ),
+        (
+            vec![
+                "bench",
+                "--data",
+                &missing_data,
+                "--model",
+                &model_arg,
+                "--out",
+                &out_arg,
+                "--sim-budgets",
+                "ten",
+            ],
+            "whole number",
+        ),
+        (
+            vec!["stress", "--model", &model_arg, "--batch", "0"],
+            "batch",
+        ),
+        (
+            vec!["stress", "--model", "/no/such/model.safetensors"],
+            "GARMATNET_MODEL",
+        ),
+    ];
+    for (args, hint) in cases {
+        let output = garmatnet()
+            .args(&args)
+            .env_remove("RUST_BACKTRACE")
+            .output()?;
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{args:?} should fail");
+        assert!(
+            stderr.contains(hint),
+            "{args:?}: expected `{hint}` in: {stderr}"
+        );
+        assert!(!out.exists(), "{args:?} left an output directory behind");
+    }
+    Ok(())
+}
