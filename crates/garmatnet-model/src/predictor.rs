@@ -310,7 +310,7 @@ impl Predictor {
         pose: &Pose,
         material: &[Real; MATERIAL_DIM],
         detail: Detail,
-        body: &dyn SignedDistance,
+        body: &(dyn SignedDistance + Sync),
     ) -> Result<(GarmentMesh, PushOutReport)> {
         let mut mesh = self.predict_normalized(pose, material, detail)?;
         let report = if self.push_out.enabled {

@@ -2,6 +2,7 @@
 //! body (or closer than a clearance ε) out along the body's distance gradient.
 
 use garmatnet_core::{Real, SignedDistance, Vec3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Push-out settings. On by default with ε = 2 mm.
@@ -31,21 +32,43 @@ pub struct PushOutReport {
     pub max_move: Real,
 }
 
+/// Below this many vertices push-out runs on the calling thread; above, on rayon's pool
+/// (each vertex is independent, so the result is the same either way).
+const PARALLEL_MIN_VERTICES: usize = 512;
+
 /// Moves every vertex with signed distance below `epsilon` along the gradient until it is
-/// `epsilon` outside `body`.
+/// `epsilon` outside `body`. Garment-sized inputs are processed in parallel; the result does
+/// not depend on the thread count.
 #[must_use]
-pub fn push_out(vertices: &mut [Vec3], body: &dyn SignedDistance, epsilon: Real) -> PushOutReport {
-    let mut report = PushOutReport::default();
-    for v in vertices.iter_mut() {
+pub fn push_out(
+    vertices: &mut [Vec3],
+    body: &(dyn SignedDistance + Sync),
+    epsilon: Real,
+) -> PushOutReport {
+    let one = |v: &mut Vec3| {
         let start = *v;
         *v = body.push_outside(v, epsilon);
         let moved = (*v - start).norm();
-        if moved > 0.0 {
-            report.moved += 1;
-            report.max_move = report.max_move.max(moved);
+        PushOutReport {
+            moved: usize::from(moved > 0.0),
+            max_move: moved,
         }
+    };
+    let merge = |a: PushOutReport, b: PushOutReport| PushOutReport {
+        moved: a.moved + b.moved,
+        max_move: a.max_move.max(b.max_move),
+    };
+    if vertices.len() < PARALLEL_MIN_VERTICES {
+        vertices
+            .iter_mut()
+            .map(one)
+            .fold(PushOutReport::default(), merge)
+    } else {
+        vertices
+            .par_iter_mut()
+            .map(one)
+            .reduce(PushOutReport::default, merge)
     }
-    report
 }
 
 #[cfg(test)]
@@ -78,5 +101,35 @@ mod tests {
             0,
             "a second pass finds nothing"
         );
+    }
+
+    #[test]
+    fn the_parallel_path_moves_exactly_what_the_serial_one_does() {
+        let s = Sphere {
+            centre: Vec3::zeros(),
+            radius: 0.3,
+        };
+        let mut rng = garmatnet_core::SplitMix64::new(4);
+        let pts: Vec<Vec3> = (0..3 * PARALLEL_MIN_VERTICES)
+            .map(|_| {
+                Vec3::new(
+                    rng.uniform(-0.5, 0.5),
+                    rng.uniform(-0.5, 0.5),
+                    rng.uniform(-0.5, 0.5),
+                )
+            })
+            .collect();
+        let mut parallel = pts.clone();
+        let report = push_out(&mut parallel, &s, 0.002);
+        let mut serial = Vec::new();
+        let mut moved = 0;
+        for chunk in pts.chunks(PARALLEL_MIN_VERTICES - 1) {
+            let mut c = chunk.to_vec();
+            moved += push_out(&mut c, &s, 0.002).moved;
+            serial.extend(c);
+        }
+        assert_eq!(parallel, serial);
+        assert_eq!(report.moved, moved);
+        assert!(moved > 0 && moved < pts.len());
     }
 }

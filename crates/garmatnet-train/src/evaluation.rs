@@ -413,7 +413,7 @@ impl PenetrationAccumulator {
         &mut self,
         garment: &mut [Vec3],
         simulated: &[Vec3],
-        body: &dyn SignedDistance,
+        body: &(dyn SignedDistance + Sync),
         epsilon: f64,
     ) {
         let depths = |g: &[Vec3]| -> (usize, f64) {
