@@ -126,6 +126,22 @@ fn bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Runs `garmatnet args` and asserts it fails, says `hint` on stderr and leaves no `out`.
+fn assert_fails_cleanly(args: &[&str], hint: &str, out: &std::path::Path) -> anyhow::Result<()> {
+    let output = garmatnet()
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()?;
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "{args:?} should fail");
+    assert!(
+        stderr.contains(hint),
+        "{args:?}: expected `{hint}` in: {stderr}"
+    );
+    assert!(!out.exists(), "{args:?} left {} behind", out.display());
+    Ok(())
+}
+
 /// An untrained model for the coarse T-shirt (the CLI cannot tell it from a trained one).
 fn coarse_model(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
     use garmatnet::model::TemplateInfo;
@@ -203,21 +219,15 @@ fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<(
         (vec!["--pose", "99999"], "frame"),
         (vec!["--device", "tpu"], "tpu"),
     ];
+    let out_arg = out.display().to_string();
     for (args, hint) in cases {
-        let output = garmatnet()
-            .args(["drape", "--model", &model_arg])
-            .args(&args)
-            .arg("--out")
-            .arg(&out)
-            .env_remove("RUST_BACKTRACE")
-            .output()?;
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(!output.status.success(), "{args:?} should fail");
-        assert!(
-            stderr.contains(hint),
-            "{args:?}: expected `{hint}` in: {stderr}"
-        );
-        assert!(!out.exists(), "{args:?} left an output file behind");
+        let full = [
+            &["drape", "--model", &model_arg][..],
+            &args,
+            &["--out", &out_arg],
+        ]
+        .concat();
+        assert_fails_cleanly(&full, hint, &out)?;
     }
     let bad_ext = dir.path().join("x.stl");
     let output = garmatnet()
@@ -297,17 +307,7 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
         ),
     ];
     for (args, hint) in cases {
-        let output = garmatnet()
-            .args(&args)
-            .env_remove("RUST_BACKTRACE")
-            .output()?;
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(!output.status.success(), "{args:?} should fail");
-        assert!(
-            stderr.contains(hint),
-            "{args:?}: expected `{hint}` in: {stderr}"
-        );
-        assert!(!out.exists(), "{args:?} left an output directory behind");
+        assert_fails_cleanly(&args, hint, &out)?;
     }
     Ok(())
 }
