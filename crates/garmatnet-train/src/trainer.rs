@@ -473,6 +473,18 @@ pub(crate) mod tests {
         }
     }
 
+    /// Both nets' best dev loss fell well below the untrained one.
+    fn assert_both_nets_learned(s: &TrainSummary) {
+        for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
+            assert!(
+                net.best_dev_mse < 0.5 * net.initial_dev_mse,
+                "dev loss {} did not fall well below the untrained {}",
+                net.best_dev_mse,
+                net.initial_dev_mse
+            );
+        }
+    }
+
     #[test]
     fn training_lowers_the_dev_loss_and_writes_a_loadable_model() {
         let _serial = training_lock();
@@ -491,14 +503,7 @@ pub(crate) mod tests {
             1e3 * s.fitting.as_ref().unwrap().seconds_per_epoch,
             s.samples[0]
         );
-        for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
-            assert!(
-                net.best_dev_mse < 0.5 * net.initial_dev_mse,
-                "dev loss {} did not fall well below the untrained {}",
-                net.best_dev_mse,
-                net.initial_dev_mse
-            );
-        }
+        assert_both_nets_learned(&s);
         let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
         assert_eq!(
             model.vertex_count(),
@@ -528,14 +533,7 @@ pub(crate) mod tests {
             ..tiny_config(25)
         };
         let s = train(&data, &model_path, &config, &RunOptions::default()).unwrap();
-        for net in [s.fitting.as_ref().unwrap(), s.local.as_ref().unwrap()] {
-            assert!(
-                net.best_dev_mse < 0.5 * net.initial_dev_mse,
-                "dev loss {} did not fall well below the untrained {}",
-                net.best_dev_mse,
-                net.initial_dev_mse
-            );
-        }
+        assert_both_nets_learned(&s);
         let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
         assert_eq!(model.fitting.output_rank(), Some(8));
         assert_eq!(model.local.output_rank(), Some(8));
