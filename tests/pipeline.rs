@@ -57,8 +57,23 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         "16,8,16",
         "--batch-size",
         "8",
+        "--held-out",
+        "6,2",
         "--quiet",
     ];
+    // A held-out rule that holds out every pose is refused before any training.
+    let refused = garmatnet(
+        &[
+            &["train", "--out", "all.safetensors", "--held-out", "6,6"][..],
+            &small[..2],
+        ]
+        .concat(),
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(refused.contains("held_out_block"), "{refused}");
+    assert!(!dir.join("all.safetensors").exists());
     garmatnet(
         &[&["train", "--out", "model.safetensors"][..], &small].concat(),
         dir,
@@ -93,6 +108,9 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         }
     }
     assert!(dir.join("report/report.md").exists());
+    // `--held-out 6,2` holds out frames 0, 1, 6 and 7 of the 12.
+    assert_eq!(report["held_out_poses"], 4, "{report}");
+    assert_eq!(report["held_out_rule"], "frames 0–1 of every 6");
 
     // The harness: the simulator at the dataset's own budget (10 here), warm-started from the
     // previous frame's ground truth, must reproduce the stored sample.

@@ -55,6 +55,13 @@ pub struct TrainOptions {
     /// Displacement frame: world or canonical.
     #[arg(long)]
     pub frame: Option<String>,
+    /// The unseen target materials (default: the paper's four), comma-separated.
+    #[arg(long, value_delimiter = ',')]
+    pub test_materials: Option<Vec<String>>,
+    /// Held-out poses: `EVERY` (frames divisible by it; paper: 10) or `EVERY,BLOCK` (runs of
+    /// BLOCK consecutive frames starting at each multiple of EVERY, e.g. 100,10).
+    #[arg(long, value_delimiter = ',')]
+    pub held_out: Option<Vec<usize>>,
     /// Train on an incomplete dataset (missing samples are skipped).
     #[arg(long)]
     pub allow_incomplete: bool,
@@ -116,6 +123,16 @@ impl TrainOptions {
                 "world" => DisplacementFrame::World,
                 "canonical" => DisplacementFrame::Canonical,
                 other => anyhow::bail!("--frame {other}: use world or canonical"),
+            };
+        }
+        if let Some(names) = &self.test_materials {
+            c.split.test_materials = names.iter().map(|n| n.trim().to_owned()).collect();
+        }
+        if let Some(h) = &self.held_out {
+            (c.split.held_out_frame_every, c.split.held_out_block) = match h[..] {
+                [every] => (every, 1),
+                [every, block] => (every, block),
+                _ => anyhow::bail!("--held-out takes EVERY or EVERY,BLOCK, e.g. 10 or 100,10"),
             };
         }
         c.allow_incomplete_dataset |= self.allow_incomplete;

@@ -350,6 +350,40 @@ impl Baseline {
             materials,
         })
     }
+
+    /// Checks that this baseline can be compared with a model on `split` of the dataset
+    /// `data`: same garment template, same dataset and the same held-out poses (a baseline
+    /// trained with other held-out poses may have trained on the comparison samples).
+    ///
+    /// # Errors
+    /// [`Error::Dataset`] saying what differs and how to retrain.
+    pub fn check_compatible(&self, data: &TrainingDataset, split: &Split) -> Result<()> {
+        let mismatch = |message: String| Error::Dataset {
+            dir: data.dir().to_owned(),
+            message,
+        };
+        if self.manifest.template_hash != data.template_hash() {
+            return Err(mismatch(
+                "the baseline was trained for another garment template".into(),
+            ));
+        }
+        let (theirs, ours) = (&self.manifest.config.split, &split.config);
+        if self.manifest.dataset_hash != data.dataset_hash()
+            || (theirs.held_out_frame_every, theirs.held_out_block)
+                != (ours.held_out_frame_every, ours.held_out_block)
+        {
+            return Err(mismatch(format!(
+                "the baseline was trained on dataset {} holding out {}, the model's split is \
+                 of dataset {} holding out {}: it may have trained on the poses it would be \
+                 tested on; train the baseline on this dataset with the model's --held-out",
+                self.manifest.dataset_hash,
+                theirs.held_out_rule(),
+                data.dataset_hash(),
+                ours.held_out_rule()
+            )));
+        }
+        Ok(())
+    }
 }
 
 fn write_net(path: &Path, net: &BaselineNet) -> Result<()> {

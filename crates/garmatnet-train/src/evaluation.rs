@@ -144,12 +144,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     };
     let mut baseline_errors: Vec<(SampleKey, VertexErrors)> = Vec::new();
     if let Some(b) = &baseline {
-        if b.manifest.template_hash != data.template_hash() {
-            return Err(Error::Dataset {
-                dir: inputs.data_dir.clone(),
-                message: "the baseline was trained for another garment template".into(),
-            });
-        }
+        b.check_compatible(&data, &split)?;
         for m in &b.materials {
             let keys: Vec<SampleKey> = comparison
                 .iter()
@@ -230,6 +225,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             .map(|&m| spec.materials[m].name.clone())
             .collect(),
         held_out_poses: split.held_out_poses.len(),
+        held_out_rule: split.config.held_out_rule(),
         garmatnet,
         baseline: baseline_stats,
         garmatnet_all_test,
@@ -677,6 +673,20 @@ mod tests {
         }
         let md = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(md.contains("Baseline (TailorNet-style)") && md.contains("Winner"));
+        assert!(md.contains("every 10th frame"), "{md}");
+
+        // A baseline trained with other held-out poses may have seen the comparison poses.
+        let manifest_path = inputs.baseline.as_ref().unwrap().join("baseline.json");
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&manifest_path).unwrap()).unwrap();
+        json["config"]["split"]["held_out_block"] = 2.into();
+        json["config"]["split"]["held_out_frame_every"] = 20.into();
+        std::fs::write(&manifest_path, serde_json::to_vec(&json).unwrap()).unwrap();
+        let err = evaluate(&inputs, &config).unwrap_err().to_string();
+        assert!(
+            err.contains("frames 0–1 of every 20") && err.contains("--held-out"),
+            "{err}"
+        );
     }
 
     #[test]

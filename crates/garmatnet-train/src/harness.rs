@@ -195,7 +195,7 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
     }
 
     if let Some(dir) = &inputs.baseline {
-        match bench_baseline(dir, &data, &cases, config)? {
+        match bench_baseline(dir, &data, &split, &cases, config)? {
             Ok(row) => rows.push(row),
             Err(why) => skipped.push(why),
         }
@@ -406,17 +406,13 @@ fn bench_network(
 fn bench_baseline(
     dir: &Path,
     data: &TrainingDataset,
+    split: &Split,
     cases: &[Case],
     config: &BenchConfig,
 ) -> Result<std::result::Result<BenchRow, String>> {
     let device = select_device("cpu")?;
     let baseline = Baseline::load(dir, &device)?;
-    if baseline.manifest.template_hash != data.template_hash() {
-        return Err(Error::Dataset {
-            dir: data.dir().to_owned(),
-            message: "the baseline was trained for another garment template".into(),
-        });
-    }
+    baseline.check_compatible(data, split)?;
     let epsilon = PushOut::default().epsilon;
     let (mut times, mut err, mut count) = (Vec::new(), 0.0, 0);
     for case in cases {

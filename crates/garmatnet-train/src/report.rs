@@ -112,6 +112,9 @@ pub struct Report {
     pub test_materials: Vec<String>,
     /// The number of held-out poses.
     pub held_out_poses: usize,
+    /// Which frames were held out (e.g. "every 10th frame").
+    #[serde(default)]
+    pub held_out_rule: String,
     /// GarMatNet on the comparison set: target materials × held-out poses (Table 2).
     pub garmatnet: ErrorStats,
     /// The baseline on the same samples (Table 2), when given.
@@ -163,11 +166,13 @@ impl Report {
         let _ = writeln!(s, "# GarMatNet evaluation\n");
         let _ = writeln!(
             s,
-            "Dataset `{}`, displacement frame `{}`, test materials: {}; {} held-out poses.\n",
+            "Dataset `{}`, displacement frame `{}`, test materials: {}; {} held-out poses \
+             ({}).\n",
             self.dataset_hash,
             self.displacement_frame,
             self.test_materials.join(", "),
-            self.held_out_poses
+            self.held_out_poses,
+            self.held_out_rule
         );
         let _ = writeln!(
             s,

@@ -20,9 +20,17 @@ use crate::error::{Error, Result};
 pub struct SplitConfig {
     /// The unseen target materials: all their samples are test samples.
     pub test_materials: Vec<String>,
-    /// Poses whose source frame index is a multiple of this are held out (test) for every
-    /// material; the paper uses 10.
+    /// Poses whose source frame index `f` has `f % held_out_frame_every < held_out_block`
+    /// are held out (test) for every material; the paper uses every 10th frame
+    /// (`held_out_frame_every = 10`, `held_out_block = 1`).
     pub held_out_frame_every: usize,
+    /// Length of each held-out run of consecutive frames (default 1, the paper's protocol).
+    ///
+    /// With a slow motion a single held-out frame sits between two training frames a few
+    /// degrees away, so the test only measures interpolation; contiguous blocks (e.g.
+    /// `every = 100, block = 10`: frames 0–9, 100–109, …) hold out as many poses but put
+    /// them several frames from any training pose.
+    pub held_out_block: usize,
     /// The dev fraction of the remaining samples (paper: 0.1).
     pub dev_fraction: f64,
     /// The seed of the train/dev shuffle.
@@ -37,8 +45,25 @@ impl Default for SplitConfig {
                 .map(|s| (*s).to_owned())
                 .collect(),
             held_out_frame_every: 10,
+            held_out_block: 1,
             dev_fraction: 0.1,
             seed: 42,
+        }
+    }
+}
+
+impl SplitConfig {
+    /// The held-out frames in words, e.g. "every 10th frame" or "frames 0–9 of every 100".
+    #[must_use]
+    pub fn held_out_rule(&self) -> String {
+        if self.held_out_block <= 1 {
+            format!("every {}th frame", self.held_out_frame_every)
+        } else {
+            format!(
+                "frames 0–{} of every {}",
+                self.held_out_block - 1,
+                self.held_out_frame_every
+            )
         }
     }
 }
@@ -68,7 +93,8 @@ impl Split {
     /// # Errors
     /// [`Error::UnknownMaterials`] if a target material is not in the dataset;
     /// [`Error::InvalidConfig`] for a dev fraction outside (0, 1), `held_out_frame_every = 0`,
-    /// or a split that leaves train, dev or test empty.
+    /// a `held_out_block` outside `1..held_out_frame_every`, or a split that leaves train,
+    /// dev or test empty.
     pub fn new(
         spec: &DatasetSpec,
         samples: &[SampleKey],
@@ -86,12 +112,19 @@ impl Split {
                 "split.held_out_frame_every must be positive".into(),
             ));
         }
+        if config.held_out_block == 0 || config.held_out_block >= config.held_out_frame_every {
+            return Err(Error::InvalidConfig(format!(
+                "split.held_out_block = {} must lie in 1..{} (below held_out_frame_every, or \
+                 every pose would be held out)",
+                config.held_out_block, config.held_out_frame_every
+            )));
+        }
         let test_materials = material_indices(spec, &config.test_materials)?;
         let held_out_poses: Vec<usize> = spec
             .frames
             .iter()
             .enumerate()
-            .filter(|(_, f)| *f % config.held_out_frame_every == 0)
+            .filter(|(_, f)| *f % config.held_out_frame_every < config.held_out_block)
             .map(|(p, _)| p)
             .collect();
         let is_test = |k: &SampleKey| {
@@ -293,6 +326,29 @@ mod tests {
         let rest = (5 * 36) as f64;
         assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
         assert_eq!(split.comparison_test().len(), 2 * 4);
+    }
+
+    #[test]
+    fn held_out_blocks_take_runs_of_consecutive_frames() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        // Frames are 3p: p = 0..3 give frames 0, 3, 6, 9 (< 10 mod 60); p = 20..23 give
+        // frames 60..69.
+        let blocks = SplitConfig {
+            held_out_frame_every: 60,
+            held_out_block: 10,
+            ..config()
+        };
+        let split = Split::new(&spec, &keys, "h", &blocks).unwrap();
+        assert_eq!(split.held_out_poses, vec![0, 1, 2, 3, 20, 21, 22, 23]);
+        split.check_no_leak(Path::new("s.json")).unwrap();
+        for bad in [0, 60, 61] {
+            let config = SplitConfig {
+                held_out_block: bad,
+                ..blocks.clone()
+            };
+            let err = Split::new(&spec, &keys, "h", &config).unwrap_err();
+            assert!(err.to_string().contains("held_out_block"), "{err}");
+        }
     }
 
     #[test]
