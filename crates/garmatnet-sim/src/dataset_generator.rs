@@ -230,7 +230,16 @@ pub fn generate_dataset(
             .num_threads(config.threads)
             .build()
             .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
-        pool.install(|| materials.par_iter().map(|&m| run_material(m)).collect())
+        // One material per task: rayon may otherwise hand a worker a run of several
+        // materials to walk sequentially while the other workers sit idle at the end
+        // (seen: the last two materials of a 30-material run on one worker of two).
+        pool.install(|| {
+            materials
+                .par_iter()
+                .with_max_len(1)
+                .map(|&m| run_material(m))
+                .collect()
+        })
     };
     writer.flush()?;
     let mut report = GenerateReport {
