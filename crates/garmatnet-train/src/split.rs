@@ -57,7 +57,15 @@ impl SplitConfig {
     #[must_use]
     pub fn held_out_rule(&self) -> String {
         if self.held_out_block <= 1 {
-            format!("every {}th frame", self.held_out_frame_every)
+            let n = self.held_out_frame_every;
+            let suffix = match (n % 10, n % 100) {
+                (_, 11..=13) => "th",
+                (1, _) => "st",
+                (2, _) => "nd",
+                (3, _) => "rd",
+                _ => "th",
+            };
+            format!("every {n}{suffix} frame")
         } else {
             format!(
                 "frames 0–{} of every {}",
@@ -349,6 +357,24 @@ mod tests {
             let err = Split::new(&spec, &keys, "h", &config).unwrap_err();
             assert!(err.to_string().contains("held_out_block"), "{err}");
         }
+    }
+
+    #[test]
+    fn the_held_out_rule_reads_as_english() {
+        let rule = |every, block| {
+            SplitConfig {
+                held_out_frame_every: every,
+                held_out_block: block,
+                ..SplitConfig::default()
+            }
+            .held_out_rule()
+        };
+        assert_eq!(rule(10, 1), "every 10th frame");
+        assert_eq!(rule(2, 1), "every 2nd frame");
+        assert_eq!(rule(3, 1), "every 3rd frame");
+        assert_eq!(rule(21, 1), "every 21st frame");
+        assert_eq!(rule(12, 1), "every 12th frame");
+        assert_eq!(rule(100, 10), "frames 0–9 of every 100");
     }
 
     #[test]
