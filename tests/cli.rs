@@ -256,57 +256,38 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
     let out = dir.path().join("bench_out");
     let out_arg = out.display().to_string();
     let missing_data = dir.path().join("no_data").display().to_string();
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    // `bench` on a missing dataset, plus the flags under test.
+    let bench = |extra: &[&'static str]| -> Vec<String> {
+        let base = [
+            "bench",
+            "--data",
+            &missing_data,
+            "--model",
+            &model_arg,
+            "--out",
+            &out_arg,
+        ];
+        base.iter().chain(extra).map(|a| (*a).to_owned()).collect()
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (bench(&[]), "no_data"),
+        (bench(&["--variant", "nameonly"]), "NAME=FILE"),
+        (bench(&["--sim-budgets", "ten"]), "whole number"),
         (
-            vec![
-                "bench",
-                "--data",
-                &missing_data,
-                "--model",
-                &model_arg,
-                "--out",
-                &out_arg,
-            ],
-            "no_data",
-        ),
-        (
-            vec![
-                "bench",
-                "--data",
-                &missing_data,
-                "--model",
-                &model_arg,
-                "--out",
-                &out_arg,
-                "--variant",
-                "nameonly",
-            ],
-            "NAME=FILE",
-        ),
-        (
-            vec![
-                "bench",
-                "--data",
-                &missing_data,
-                "--model",
-                &model_arg,
-                "--out",
-                &out_arg,
-                "--sim-budgets",
-                "ten",
-            ],
-            "whole number",
-        ),
-        (
-            vec!["stress", "--model", &model_arg, "--batch", "0"],
+            ["stress", "--model", &model_arg, "--batch", "0"]
+                .map(String::from)
+                .to_vec(),
             "batch",
         ),
         (
-            vec!["stress", "--model", "/no/such/model.safetensors"],
+            ["stress", "--model", "/no/such/model.safetensors"]
+                .map(String::from)
+                .to_vec(),
             "GARMATNET_MODEL",
         ),
     ];
     for (args, hint) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
         assert_fails_cleanly(&args, hint, &out)?;
     }
     Ok(())
