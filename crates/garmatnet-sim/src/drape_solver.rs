@@ -32,6 +32,9 @@ const ARMIJO: Real = 1e-4;
 const MAX_BACKTRACKS: usize = 10;
 /// Growth of the pseudo time step after a full, unclamped Newton step.
 const GROWTH: Real = 3.0;
+/// Below this multiple of the RMS residual tolerance, a Newton step the line search refuses
+/// is still taken if it lowers the force residual.
+const NEAR_EQUILIBRIUM: Real = 100.0;
 /// Smallest pseudo time step (seconds).
 const MIN_TIME_STEP: Real = 1e-6;
 
@@ -234,6 +237,8 @@ impl DrapeSolver {
         let mut coupling = vec![Mat3::zeros(); model.springs().len()];
         let mut rhs = vec![0.0; 3 * n];
         let mut trial = positions.to_vec();
+        let mut trial_contacts = contacts.clone();
+        let mut trial_gradient = gradient.clone();
         let mut h = s.time_step;
         let mut iterations = 0;
         let mut rejected_steps = 0;
@@ -333,6 +338,22 @@ impl DrapeSolver {
                 }
                 alpha *= 0.5;
             }
+            if !accepted && s.friction == 0.0 && rms <= NEAR_EQUILIBRIUM * s.residual_tolerance {
+                // Near equilibrium a Newton step changes the energy by ~1e-10 J, where the
+                // energy test loses its resolution (and a contact crossing the margin bends
+                // it), and Armijo can fail at every length: without this the pseudo time step
+                // shrinks to nothing and the drape stalls at the cap a hair above the
+                // tolerance. Take the full step if it lowers the force residual.
+                for i in 0..n {
+                    trial[i] = positions[i] + step[i];
+                }
+                energy.gradient(&trial, collider, &mut trial_contacts, &mut trial_gradient);
+                let trial_rms = force_rms(&trial_gradient, masses, &is_pinned, s.gravity);
+                if trial_rms < rms {
+                    accepted = true;
+                    alpha = 1.0;
+                }
+            }
             if accepted {
                 if trial.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
                     return Err(Error::Diverged {
@@ -381,6 +402,21 @@ impl DrapeSolver {
             .map(|s| ((x[s.a] - x[s.b]).norm() - s.rest_length) / s.rest_length)
             .fold(Real::NEG_INFINITY, Real::max)
     }
+}
+
+/// RMS over free vertices of `|f_i| / (m_i g)` for the conservative forces `-gradient` (the
+/// frictionless residual).
+fn force_rms(gradient: &[Vec3], masses: &[Real], is_pinned: &[bool], gravity: Real) -> Real {
+    let (sum, count) = gradient
+        .iter()
+        .zip(masses)
+        .zip(is_pinned)
+        .filter(|(_, pinned)| !**pinned)
+        .fold((0.0, 0usize), |(sum, count), ((g, m), _)| {
+            let e = g.norm() / (m * gravity);
+            (sum + e * e, count + 1)
+        });
+    (sum / count.max(1) as Real).sqrt()
 }
 
 fn validate_settings(s: &DrapeSettings) -> Result<()> {
