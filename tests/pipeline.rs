@@ -47,6 +47,32 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     )?;
     let check = garmatnet(&["dataset", "check", "data"], dir)?;
     assert!(check.contains("complete: 84"), "{check}");
+    // Resuming with the other motion pace would mix two pose sequences: refused, with the fix.
+    let other_pace = garmatnet(
+        &[
+            "simulate",
+            "--materials",
+            materials,
+            "--poses",
+            "12",
+            "--motion",
+            "gentle",
+            "--resolution",
+            "coarse",
+            "--out",
+            "data",
+            "--solver",
+            "quick.json",
+            "--quiet",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        other_pace.contains("other poses") && other_pace.contains("--motion gentle"),
+        "{other_pace}"
+    );
 
     let small = [
         "--data",

@@ -6,7 +6,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::core::{Material, Resolution, SmoothingSettings, find_preset, presets, read_poses};
-use garmatnet::sim::{GenerateConfig, MotionGenerator, SequenceSettings, Shard, generate_dataset};
+use garmatnet::sim::{
+    GenerateConfig, MotionGenerator, MotionPace, SequenceSettings, Shard, generate_dataset,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Drape the T-shirt for every (material, pose) pair and write a dataset directory.
@@ -21,6 +23,10 @@ pub struct SimulateArgs {
     /// Seed of the built-in motion sequence.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Pace of the built-in motion: `brisk` (default; consecutive frames are distinct poses)
+    /// or `gentle` (the motion of datasets made before the brisk pace; use it to resume one).
+    #[arg(long, default_value = "brisk")]
+    pub motion: MotionPace,
     /// Template resolution: coarse, default or paper.
     #[arg(long, default_value = "default")]
     pub resolution: Resolution,
@@ -68,7 +74,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let materials = parse_materials(&args.materials)?;
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
-        Ok(n) => MotionGenerator::new(args.seed, n).generate(),
+        Ok(n) => MotionGenerator::with_pace(args.seed, n, args.motion).generate(),
         Err(_) => read_poses(std::path::Path::new(&args.poses))
             .with_context(|| format!("reading poses from {}", args.poses))?,
     };
@@ -116,8 +122,25 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             }
         },
         &|| stop.load(Ordering::Relaxed),
-    )?;
+    );
     bar.finish_and_clear();
+    let report = match report {
+        Err(e)
+            if e.to_string().contains("existing dataset's poses")
+                && args.poses.parse::<usize>().is_ok() =>
+        {
+            return Err(e).context(format!(
+                "{} was made with other poses than `--poses {} --motion {} --seed {}` gives; \
+                 resume it with the pace and seed it was made with (datasets made before the \
+                 brisk pace existed: `--motion gentle`)",
+                args.out.display(),
+                args.poses,
+                args.motion,
+                args.seed
+            ));
+        }
+        other => other?,
+    };
     println!(
         "{}: wrote {} samples ({} already done, {} in this shard), {} not converged; {:.0} ms per sample per worker, {:.1} s in all",
         args.out.display(),

@@ -38,7 +38,7 @@ pub use manifest::{
     SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
 };
 pub use motion::{
-    MotionGenerator, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
+    MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
 };
 pub use sample_arrays::SampleArrays;
 pub use shard::{Shard, merge_shards};
