@@ -292,3 +292,69 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
     }
     Ok(())
 }
+
+#[test]
+fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = dir.path().join("quick.json");
+    std::fs::write(
+        &quick,
+        r#"{"drape": {"max_iterations": 5}, "max_step_rad": 0.3, "intermediate_iterations": 1}"#,
+    )?;
+    let simulate = |out: &str, seed: &str| -> anyhow::Result<serde_json::Value> {
+        let status = garmatnet()
+            .args([
+                "simulate",
+                "--materials",
+                "Cotton Poplin",
+                "--random-materials",
+                "2",
+                "--material-seed",
+                seed,
+                "--poses",
+                "1",
+                "--resolution",
+                "coarse",
+                "--quiet",
+                "--solver",
+            ])
+            .arg(&quick)
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .status()?;
+        anyhow::ensure!(status.success(), "simulate {out} failed");
+        Ok(serde_json::from_slice(&std::fs::read(
+            dir.path().join(out).join("manifest.json"),
+        )?)?)
+    };
+    let a = simulate("a", "5")?;
+    let materials = a["materials"].as_array().expect("a material list");
+    let names: Vec<&str> = materials
+        .iter()
+        .filter_map(|m| m["name"].as_str())
+        .collect();
+    assert_eq!(names, ["Cotton Poplin", "random-5-000", "random-5-001"]);
+    let omega = |m: &serde_json::Value| -> Vec<f64> {
+        m["omega_normalized"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|v| v.as_f64())
+            .collect()
+    };
+    for m in &materials[1..] {
+        let w = omega(m);
+        assert!(
+            w.len() == 6 && w.iter().all(|v| (0.0..=1.0).contains(v)),
+            "{w:?}"
+        );
+    }
+    assert_ne!(omega(&materials[1]), omega(&materials[2]));
+    assert_eq!(a["samples"].as_array().map(Vec::len), Some(3));
+    // Seeded: the same seed gives the same materials, another seed others.
+    let b = simulate("b", "5")?;
+    assert_eq!(a["materials"], b["materials"]);
+    let c = simulate("c", "6")?;
+    assert_ne!(omega(&materials[1]), omega(&c["materials"][1]));
+    Ok(())
+}

@@ -5,7 +5,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use garmatnet::core::{Material, Resolution, SmoothingSettings, find_preset, presets, read_poses};
+use garmatnet::core::{
+    MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64, find_preset, presets,
+    read_poses,
+};
 use garmatnet::sim::{
     GenerateConfig, MotionGenerator, MotionPace, SequenceSettings, Shard, generate_dataset,
 };
@@ -17,6 +20,13 @@ pub struct SimulateArgs {
     /// `all`, or a comma-separated list of preset names.
     #[arg(long, default_value = "all")]
     pub materials: String,
+    /// Also drape this many random materials, uniform in the normalised ω cube (after the
+    /// presets; named `random-SEED-INDEX`): denser material coverage for training.
+    #[arg(long, default_value_t = 0)]
+    pub random_materials: usize,
+    /// Seed of the random materials.
+    #[arg(long, default_value_t = 0)]
+    pub material_seed: u64,
     /// The number of frames of the built-in motion sequence, or a pose file (.json, .npz, .npy).
     #[arg(long)]
     pub poses: String,
@@ -69,9 +79,24 @@ pub fn parse_materials(spec: &str) -> Result<Vec<(String, Material)>> {
     Ok(out)
 }
 
+/// `count` materials uniform in the normalised ω cube from `seed`, named `random-SEED-INDEX`.
+pub fn random_materials(count: usize, seed: u64) -> Result<Vec<(String, Material)>> {
+    let mut rng = SplitMix64::new(seed);
+    (0..count)
+        .map(|i| {
+            let omega: [f64; MATERIAL_DIM] = std::array::from_fn(|_| rng.next_f64());
+            Ok((
+                format!("random-{seed}-{i:03}"),
+                Material::from_normalized(omega)?,
+            ))
+        })
+        .collect()
+}
+
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    let materials = parse_materials(&args.materials)?;
+    let mut materials = parse_materials(&args.materials)?;
+    materials.extend(random_materials(args.random_materials, args.material_seed)?);
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
         Ok(n) => MotionGenerator::with_pace(args.seed, n, args.motion).generate(),
