@@ -28,47 +28,27 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         r#"{"drape": {"max_iterations": 10}, "max_step_rad": 0.15, "intermediate_iterations": 1}"#,
     )?;
     let materials = "Sherpa Fleece 160,Silk Duchess Satin,Trim Fusible Rigid,Cashmere,Cotton Poplin,Denim Heavy,Silk Chiffon";
-    garmatnet(
-        &[
-            "simulate",
-            "--materials",
-            materials,
-            "--poses",
-            "12",
-            "--resolution",
-            "coarse",
-            "--out",
-            "data",
-            "--solver",
-            "quick.json",
-            "--quiet",
-        ],
-        dir,
-    )?;
+    let simulate = [
+        "simulate",
+        "--materials",
+        materials,
+        "--poses",
+        "12",
+        "--resolution",
+        "coarse",
+        "--out",
+        "data",
+        "--solver",
+        "quick.json",
+        "--quiet",
+    ];
+    garmatnet(&simulate, dir)?;
     let check = garmatnet(&["dataset", "check", "data"], dir)?;
     assert!(check.contains("complete: 84"), "{check}");
     // Resuming with the other motion pace would mix two pose sequences: refused, with the fix.
-    let other_pace = garmatnet(
-        &[
-            "simulate",
-            "--materials",
-            materials,
-            "--poses",
-            "12",
-            "--motion",
-            "gentle",
-            "--resolution",
-            "coarse",
-            "--out",
-            "data",
-            "--solver",
-            "quick.json",
-            "--quiet",
-        ],
-        dir,
-    )
-    .unwrap_err()
-    .to_string();
+    let other_pace = garmatnet(&[&simulate[..], &["--motion", "gentle"]].concat(), dir)
+        .unwrap_err()
+        .to_string();
     assert!(
         other_pace.contains("other poses") && other_pace.contains("--motion gentle"),
         "{other_pace}"

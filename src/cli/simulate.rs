@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::core::{
-    MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64, find_preset, presets,
-    read_poses,
+    Error as CoreError, MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64,
+    find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
     GenerateConfig, MotionGenerator, MotionPace, SequenceSettings, Shard, generate_dataset,
@@ -93,6 +93,12 @@ pub fn random_materials(count: usize, seed: u64) -> Result<Vec<(String, Material
         .collect()
 }
 
+/// Whether `e` is the refusal to resume a dataset whose pose list differs.
+fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
+    matches!(e, garmatnet::sim::Error::Core(CoreError::Mismatch { what, .. })
+        if what.starts_with("existing dataset's poses"))
+}
+
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let mut materials = parse_materials(&args.materials)?;
@@ -150,10 +156,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     );
     bar.finish_and_clear();
     let report = match report {
-        Err(e)
-            if e.to_string().contains("existing dataset's poses")
-                && args.poses.parse::<usize>().is_ok() =>
-        {
+        Err(e) if is_pose_mismatch(&e) && args.poses.parse::<usize>().is_ok() => {
             return Err(e).context(format!(
                 "{} was made with other poses than `--poses {} --motion {} --seed {}` gives; \
                  resume it with the pace and seed it was made with (datasets made before the \
