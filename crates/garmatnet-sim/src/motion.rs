@@ -449,10 +449,9 @@ mod tests {
     }
 
     /// L2 distance over the 72 components (radians).
-    fn l2(a: &Pose, b: &Pose) -> Real {
-        a.to_vec()
-            .iter()
-            .zip(b.to_vec())
+    fn l2(a: &[Real], b: &[Real]) -> Real {
+        a.iter()
+            .zip(b)
             .map(|(x, y)| (x - y).powi(2))
             .sum::<Real>()
             .sqrt()
@@ -461,11 +460,11 @@ mod tests {
     /// (mean distance of every 10th frame to its nearest other frame, mean distance of a
     /// frame to the mean pose).
     fn hold_out_gap_and_spread(poses: &[Pose]) -> (Real, Real) {
+        let poses: Vec<Vec<Real>> = poses.iter().map(Pose::to_vec).collect();
         let n = poses.len() as Real;
         let mean: Vec<Real> = (0..POSE_DIM)
-            .map(|c| poses.iter().map(|p| p.to_vec()[c]).sum::<Real>() / n)
+            .map(|c| poses.iter().map(|p| p[c]).sum::<Real>() / n)
             .collect();
-        let mean = Pose::from_slice(&mean).unwrap();
         let spread = poses.iter().map(|p| l2(p, &mean)).sum::<Real>() / n;
         let held: Vec<usize> = (0..poses.len()).step_by(10).collect();
         let gap = held
