@@ -358,3 +358,97 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
     assert_ne!(omega(&materials[1]), omega(&c["materials"][1]));
     Ok(())
 }
+
+#[test]
+fn dataset_merge_joins_shards_and_completes_slim_samples() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = dir.path().join("quick.json");
+    std::fs::write(
+        &quick,
+        r#"{"drape": {"max_iterations": 5}, "max_step_rad": 0.3, "intermediate_iterations": 1}"#,
+    )?;
+    for (shard, out) in [("0/2", "s0"), ("1/2", "s1"), ("0/1", "whole")] {
+        let status = garmatnet()
+            .args([
+                "simulate",
+                "--materials",
+                "Cotton Poplin,Denim Heavy",
+                "--poses",
+                "2",
+            ])
+            .args([
+                "--resolution",
+                "coarse",
+                "--quiet",
+                "--shard",
+                shard,
+                "--solver",
+            ])
+            .arg(&quick)
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .status()?;
+        anyhow::ensure!(status.success(), "simulate --shard {shard} failed");
+    }
+    // Shard 1 travels slim: only the simulated garments and the markers.
+    for entry in std::fs::read_dir(dir.path().join("s1/samples"))? {
+        let sample = entry?.path();
+        std::fs::remove_file(sample.join("smoothed.npy"))?;
+        std::fs::remove_file(sample.join("body.npy"))?;
+    }
+    let merged = dir.path().join("merged");
+    let output = garmatnet()
+        .args(["dataset", "merge", "--into"])
+        .arg(&merged)
+        .arg(dir.path().join("s0"))
+        .arg(dir.path().join("s1"))
+        .output()?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("2 copied, 2 completed from slim samples"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("it holds 4 of 2 materials x 2 poses"),
+        "{stdout}"
+    );
+    let status = garmatnet()
+        .args(["dataset", "check"])
+        .arg(&merged)
+        .status()?;
+    assert!(status.success());
+    for sample in ["m001_p0000", "m001_p0001"] {
+        for name in ["simulated.npy", "smoothed.npy", "body.npy"] {
+            let path = |root: &str| {
+                dir.path()
+                    .join(root)
+                    .join("samples")
+                    .join(sample)
+                    .join(name)
+            };
+            assert_eq!(
+                std::fs::read(merged.join("samples").join(sample).join(name))?,
+                std::fs::read(path("whole"))?,
+                "{sample}/{name}"
+            );
+        }
+    }
+    // A missing source fails by name and creates nothing.
+    let nowhere = dir.path().join("nowhere");
+    let out = dir.path().join("never");
+    let output = garmatnet()
+        .args(["dataset", "merge", "--into"])
+        .arg(&out)
+        .arg(dir.path().join("s0"))
+        .arg(&nowhere)
+        .output()?;
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("nowhere"));
+    assert!(!out.exists());
+    Ok(())
+}

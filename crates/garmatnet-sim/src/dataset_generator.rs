@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use garmatnet_core::{
-    CapsuleBody, Garment, LaplacianSmoother, Material, Pose, Resolution, SkinnedBody,
-    SmoothingSettings, Vec3,
+    CapsuleBody, Garment, LaplacianSmoother, LaplacianWeights, Material, Pose, Resolution,
+    SkinnedBody, SmoothingSettings, Vec3,
 };
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -29,6 +29,120 @@ use crate::shard::Shard;
 
 /// The name datasets record for the procedural body.
 pub const BODY_NAME: &str = "capsule-smpl-neutral";
+
+/// Derives a sample's stored arrays from its simulated garment exactly as the generator
+/// does: the Laplacian-smoothed garment (the fitting net's target) and the posed body points.
+///
+/// [`crate::merge_shards`] uses it to complete samples that travelled without their derived
+/// arrays (only `simulated.npy` and `stats.json`, a third of the bytes).
+#[derive(Debug)]
+pub struct SampleDeriver {
+    body: CapsuleBody,
+    garment: Garment,
+    smoother: LaplacianSmoother,
+}
+
+impl SampleDeriver {
+    /// The deriver for the procedural body, the T-shirt at `resolution` and `smoothing`.
+    ///
+    /// # Errors
+    /// [`Error::Core`] if the T-shirt or the smoother cannot be built.
+    pub fn new(resolution: Resolution, smoothing: SmoothingSettings) -> Result<Self> {
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(resolution, &body)?;
+        let smoother = LaplacianSmoother::new(&garment.rest, smoothing)?;
+        Ok(Self {
+            body,
+            garment,
+            smoother,
+        })
+    }
+
+    /// The deriver a dataset was written with, rebuilt from its spec; refuses a spec whose
+    /// body, template or smoothing this library cannot reproduce.
+    ///
+    /// # Errors
+    /// [`Error::Core`] with [`garmatnet_core::Error::Mismatch`] if the body is not
+    /// [`BODY_NAME`] or the rebuilt template's vertex count or hash differs from the spec's,
+    /// [`garmatnet_core::Error::InvalidArgument`] for an unknown resolution or weighting.
+    pub fn for_spec(spec: &DatasetSpec) -> Result<Self> {
+        let mismatch = |what: &str, expected: String, got: String| {
+            Error::Core(garmatnet_core::Error::Mismatch {
+                what: format!("dataset's {what} (made by another version of garmatnet?)"),
+                expected,
+                got,
+            })
+        };
+        if spec.body.name != BODY_NAME {
+            return Err(mismatch(
+                "body",
+                BODY_NAME.to_owned(),
+                spec.body.name.clone(),
+            ));
+        }
+        let resolution: Resolution = spec.template.resolution.parse()?;
+        let weights: LaplacianWeights =
+            serde_json::from_value(serde_json::Value::String(spec.smoothing.weights.clone()))
+                .map_err(|_| {
+                    garmatnet_core::Error::InvalidArgument(format!(
+                        "dataset's smoothing weights `{}`: expected `uniform` or `cotangent`",
+                        spec.smoothing.weights
+                    ))
+                })?;
+        let smoothing = SmoothingSettings {
+            lambda: spec.smoothing.lambda,
+            iterations: spec.smoothing.iterations as usize,
+            weights,
+        };
+        let deriver = Self::new(resolution, smoothing)?;
+        let hash = format!("{:016x}", deriver.garment.template_hash());
+        if deriver.garment.vertex_count() != spec.template.vertex_count
+            || hash != spec.template.hash
+        {
+            return Err(mismatch(
+                "template",
+                format!(
+                    "{} vertices, hash {}",
+                    spec.template.vertex_count, spec.template.hash
+                ),
+                format!("{} vertices, hash {hash}", deriver.garment.vertex_count()),
+            ));
+        }
+        Ok(deriver)
+    }
+
+    /// The body the garment is draped on.
+    #[must_use]
+    pub fn body(&self) -> &CapsuleBody {
+        &self.body
+    }
+
+    /// The garment template.
+    #[must_use]
+    pub fn garment(&self) -> &Garment {
+        &self.garment
+    }
+
+    /// The arrays stored for a drape `simulated` of the garment on `pose`.
+    ///
+    /// # Errors
+    /// [`Error::Core`] if `simulated` does not have the template's vertex count or is not
+    /// finite.
+    pub fn arrays(&self, simulated: &[Vec3], pose: &Pose) -> Result<SampleArrays> {
+        let smooth = self.smoother.smooth(simulated)?;
+        let transforms = self.body.skeleton().skinning_transforms(pose);
+        let to_f32 = |v: &[Vec3]| {
+            v.iter()
+                .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect()
+        };
+        Ok(SampleArrays {
+            simulated: to_f32(simulated),
+            smoothed: to_f32(&smooth),
+            body: to_f32(&self.garment.body_points(&transforms)),
+        })
+    }
+}
 
 /// What to generate.
 #[derive(Debug, Clone)]
@@ -132,10 +246,9 @@ pub fn generate_dataset(
     should_stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<GenerateReport> {
     let started = Instant::now();
-    let body = CapsuleBody::smpl_neutral();
-    let garment = Garment::tshirt(config.resolution, &body)?;
-    let smoother = LaplacianSmoother::new(&garment.rest, config.smoothing)?;
-    let writer = DatasetWriter::open(&config.out, dataset_spec(config, &garment)?)?;
+    let deriver = SampleDeriver::new(config.resolution, config.smoothing)?;
+    let (body, garment) = (deriver.body(), deriver.garment());
+    let writer = DatasetWriter::open(&config.out, dataset_spec(config, garment)?)?;
     let materials: Vec<usize> = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
         .collect();
@@ -178,18 +291,7 @@ pub fn generate_dataset(
                 return Err(Error::Interrupted);
             }
             let sample_ms = last.elapsed().as_secs_f64() * 1e3;
-            let transforms = body.skeleton().skinning_transforms(&config.poses[p]);
-            let smooth = smoother.smooth(x)?;
-            let to_f32 = |v: &[Vec3]| {
-                v.iter()
-                    .map(|p| [p.x as f32, p.y as f32, p.z as f32])
-                    .collect()
-            };
-            let arrays = SampleArrays {
-                simulated: to_f32(x),
-                smoothed: to_f32(&smooth),
-                body: to_f32(&garment.body_points(&transforms)),
-            };
+            let arrays = deriver.arrays(x, &config.poses[p])?;
             let sample_stats = SampleStats {
                 iterations: stats.iterations as u64,
                 residual: stats.final_residual,
@@ -212,8 +314,8 @@ pub fn generate_dataset(
             Ok(())
         };
         drape_sequence(
-            &garment,
-            &body,
+            garment,
+            body,
             material,
             &config.poses,
             &config.sequence,

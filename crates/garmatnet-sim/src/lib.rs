@@ -25,7 +25,8 @@ pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
 pub use dataset_generator::{
-    BODY_NAME, GenerateConfig, GenerateReport, SampleDone, dataset_spec, generate_dataset,
+    BODY_NAME, GenerateConfig, GenerateReport, SampleDeriver, SampleDone, dataset_spec,
+    generate_dataset,
 };
 pub use dataset_reader::{DatasetReader, DatasetReport, Summary, check};
 pub use drape_settings::DrapeSettings;
@@ -41,4 +42,4 @@ pub use motion::{
     MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
 };
 pub use sample_arrays::SampleArrays;
-pub use shard::{Shard, merge_shards};
+pub use shard::{MergeReport, Shard, merge_shards};

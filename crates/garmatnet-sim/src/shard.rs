@@ -2,10 +2,12 @@
 
 use std::path::{Path, PathBuf};
 
-use garmatnet_core::{Error, Result};
+use garmatnet_core::{Error, Result, Vec3};
 
 use crate::dataset::{DatasetWriter, ensure_same_spec, samples_dir, scan_samples};
+use crate::dataset_generator::SampleDeriver;
 use crate::manifest::{DatasetSpec, Manifest};
+use crate::sample_arrays::read_points_npy;
 
 /// A subset of a dataset's work: shard `index` of `count` takes the materials whose index
 /// `% count == index`.
@@ -56,35 +58,76 @@ impl Shard {
     }
 }
 
+/// What [`merge_shards`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MergeReport {
+    /// Samples copied with all their arrays.
+    pub copied: usize,
+    /// Slim samples (only `simulated.npy` and `stats.json`) whose smoothed garment and body
+    /// points were recomputed ([`SampleDeriver`]) before they were written.
+    pub derived: usize,
+}
+
+/// The arrays a slim sample leaves out: [`SampleDeriver`] recomputes them from
+/// `simulated.npy` and the spec.
+const DERIVED_FILES: [&str; 2] = ["smoothed.npy", "body.npy"];
+
 /// Merges shard outputs into `dest`: copies every finished sample directory of each source
 /// (all written with `spec`) into `dest`, then opens `dest` so its manifest lists them all.
-/// Returns the number of samples copied.
+///
+/// A source sample may be *slim*: only `simulated.npy` and its `stats.json` marker, a third of
+/// the bytes, which is how shards computed elsewhere are best carried home. Its smoothed
+/// garment and body points are then recomputed from the spec exactly as the generator
+/// computed them (byte for byte: tested) and the sample is written through
+/// [`DatasetWriter::write_sample`], marker last.
 ///
 /// # Errors
 /// As [`DatasetWriter::open`] for `dest` and each source's manifest (a source with a
-/// different spec is refused before anything is copied); [`Error::Io`] if copying fails.
+/// different spec is refused before anything is copied); [`Error::Io`] if copying fails;
+/// for slim samples, [`SampleDeriver::for_spec`]'s errors and [`Error::Parse`] for a
+/// malformed `simulated.npy`.
 pub fn merge_shards(
     dest: impl AsRef<Path>,
     sources: &[PathBuf],
     spec: DatasetSpec,
-) -> Result<usize> {
+) -> crate::Result<MergeReport> {
     let dest = dest.as_ref();
+    // Every source is read before `dest` is created, so a missing source leaves nothing.
+    let manifests = sources
+        .iter()
+        .map(|src| Manifest::read(src))
+        .collect::<Result<Vec<_>>>()?;
     let writer = DatasetWriter::open(dest, spec)?;
     let mut plans = Vec::new();
-    for src in sources {
-        let manifest = Manifest::read(src)?;
+    for (src, manifest) in sources.iter().zip(manifests) {
         ensure_same_spec(writer.spec(), &manifest.spec)?;
         plans.push((src, scan_samples(src, &manifest.spec)?));
     }
-    let mut copied = 0;
+    let mut report = MergeReport::default();
+    let mut deriver: Option<SampleDeriver> = None;
     for (src, records) in plans {
         for record in records {
             let from = samples_dir(src).join(&record.stem);
+            if !DERIVED_FILES.iter().all(|name| from.join(name).exists()) {
+                let deriver = match &mut deriver {
+                    Some(deriver) => deriver,
+                    empty => empty.insert(SampleDeriver::for_spec(writer.spec())?),
+                };
+                let simulated = read_points_npy(&from.join("simulated.npy"), &record.stem)?;
+                let x: Vec<Vec3> = simulated
+                    .iter()
+                    .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
+                    .collect();
+                let arrays = deriver.arrays(&x, &writer.spec().poses[record.pose])?;
+                writer.write_sample(record.material, record.pose, &arrays, record.stats)?;
+                report.derived += 1;
+                continue;
+            }
             let to = samples_dir(dest).join(&record.stem);
             std::fs::create_dir_all(&to).map_err(|e| Error::io(&to, e))?;
             match std::fs::remove_file(to.join("stats.json")) {
                 Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(Error::io(&to, e));
+                    return Err(Error::io(&to, e).into());
                 }
                 _ => {}
             }
@@ -94,14 +137,14 @@ pub fn merge_shards(
                     std::fs::read(from.join(name)).map_err(|e| Error::io(from.join(name), e))?;
                 garmatnet_core::write_bytes_atomic(to.join(name), &bytes)?;
             }
-            copied += 1;
+            report.copied += 1;
         }
     }
     drop(writer);
     // Reopen to rebuild the manifest from every marker now present.
     let spec = Manifest::read(dest)?.spec;
     DatasetWriter::open(dest, spec)?.flush()?;
-    Ok(copied)
+    Ok(report)
 }
 
 #[cfg(test)]
@@ -126,7 +169,13 @@ mod tests {
             }
         }
         let merged = root.path().join("merged");
-        assert_eq!(merge_shards(&merged, &shards, spec.clone()).unwrap(), 12);
+        assert_eq!(
+            merge_shards(&merged, &shards, spec.clone()).unwrap(),
+            MergeReport {
+                copied: 12,
+                derived: 0
+            }
+        );
         let manifest = Manifest::read(&merged).unwrap();
         assert_eq!(manifest.samples.len(), 12);
         // Plain directory copies (no merge_shards) are also picked up on open.

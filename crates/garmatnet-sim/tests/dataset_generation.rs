@@ -1,14 +1,15 @@
 //! Dataset generation end to end: a run killed mid-way resumes and finishes with the same
 //! arrays as an uninterrupted run, thread counts do not change the bytes, shards split the
-//! materials, and the result passes `check`.
+//! materials, slim shards (simulated garments only) merge into the same bytes, and the result
+//! passes `check`.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use garmatnet_core::{Material, Resolution, SmoothingSettings};
 use garmatnet_sim::{
-    DrapeSettings, Error, GenerateConfig, MotionGenerator, SequenceSettings, Shard, check,
-    generate_dataset,
+    DrapeSettings, Error, GenerateConfig, Manifest, MergeReport, MotionGenerator, SequenceSettings,
+    Shard, check, generate_dataset, merge_shards,
 };
 
 fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
@@ -101,5 +102,43 @@ fn killed_runs_resume_to_the_same_dataset_and_threads_do_not_matter() -> anyhow:
     let b = generate_dataset(&config(&sharded, 1, Shard::new(1, 2)?), &|_| {}, &|| false)?;
     assert_eq!((a.written, b.written), (6, 3));
     assert_eq!(arrays(&sharded), reference);
+
+    // Slim samples (simulated.npy + marker only) merge into the same bytes: the smoothed
+    // garment and body points are recomputed as the generator computed them.
+    let slim = tmp.path().join("slim");
+    std::fs::create_dir_all(&slim)?;
+    std::fs::copy(whole.join("manifest.json"), slim.join("manifest.json"))?;
+    for entry in std::fs::read_dir(whole.join("samples"))? {
+        let entry = entry?;
+        let to = slim.join("samples").join(entry.file_name());
+        std::fs::create_dir_all(&to)?;
+        for name in ["simulated.npy", "stats.json"] {
+            std::fs::copy(entry.path().join(name), to.join(name))?;
+        }
+    }
+    let spec = Manifest::read(&whole)?.spec;
+    let merged = tmp.path().join("merged");
+    let report = merge_shards(&merged, std::slice::from_ref(&slim), spec.clone())?;
+    assert_eq!(
+        report,
+        MergeReport {
+            copied: 0,
+            derived: 9
+        }
+    );
+    assert_eq!(
+        arrays(&merged),
+        reference,
+        "derived arrays must equal the generator's"
+    );
+    assert!(check(&merged)?.is_ok());
+
+    // A damaged slim sample is refused by name, and nothing of it is marked done.
+    let stem = slim.join("samples").join("m001_p0002");
+    std::fs::write(stem.join("simulated.npy"), b"not an npy file")?;
+    let again = tmp.path().join("again");
+    let err = merge_shards(&again, &[slim], spec).unwrap_err();
+    assert!(err.to_string().contains("m001_p0002"), "{err}");
+    assert!(!again.join("samples/m001_p0002/stats.json").exists());
     Ok(())
 }
