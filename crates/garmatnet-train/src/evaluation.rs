@@ -17,7 +17,7 @@ use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 use crate::report::{
     ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
-    Timing, spread_mm,
+    TestParts, Timing, spread_mm,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -136,6 +136,25 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     };
     let garmatnet_all_test = stats_of(&|_| true);
     let garmatnet = stats_of(&|k| comparison.binary_search(k).is_ok());
+    // Where the error comes from: an unseen fabric at training poses, a training fabric at an
+    // unseen pose, and neither unseen (the development set: seen fabric and pose, unseen drape).
+    let unseen_material = |k: &SampleKey| split.test_materials.contains(&k.material);
+    let held_out = |k: &SampleKey| split.held_out_poses.contains(&k.pose);
+    let non_empty = |e: ErrorStats| (e.samples > 0).then_some(e);
+    let by_part = TestParts {
+        unseen_material: non_empty(stats_of(&|k| unseen_material(k) && !held_out(k))),
+        unseen_pose: non_empty(stats_of(&|k| !unseen_material(k) && held_out(k))),
+        development: {
+            let mut errors = Vec::with_capacity(split.dev.len());
+            for keys in split.dev.chunks(64) {
+                let preds = predict_garmatnet(&model, &data, keys, &device)?;
+                for (&key, pred) in keys.iter().zip(preds) {
+                    errors.push(vertex_errors(&data.truth(key)?, &pred));
+                }
+            }
+            non_empty(error_stats(errors.iter()))
+        },
+    };
 
     // The baseline on the comparison set.
     let baseline = match &inputs.baseline {
@@ -229,6 +248,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         garmatnet,
         baseline: baseline_stats,
         garmatnet_all_test,
+        garmatnet_by_part: Some(by_part),
         per_sample,
         penetration: penetration.finish(config.push_out_epsilon),
         timing,
@@ -638,6 +658,22 @@ mod tests {
             assert!(r.baseline.is_some());
         }
         assert!(report.garmatnet_all_test.samples > report.garmatnet.samples);
+        // The parts partition the test set (plus the comparison set) and the dev set is its own.
+        let parts = report.garmatnet_by_part.clone().unwrap();
+        let (fabric, pose, dev) = (
+            parts.unseen_material.unwrap(),
+            parts.unseen_pose.unwrap(),
+            parts.development.unwrap(),
+        );
+        assert_eq!(
+            fabric.samples + pose.samples + report.garmatnet.samples,
+            report.garmatnet_all_test.samples
+        );
+        let split = Split::read(&split_path(&world), report.dataset_hash.as_str()).unwrap();
+        assert_eq!(dev.samples, split.dev.len());
+        for e in [fabric, pose, dev] {
+            assert!(e.whole_mm.is_finite() && e.whole_mm <= e.fitting_mm + e.local_mm + 1e-9);
+        }
         let p = report.penetration;
         assert!(p.inside_fraction_after <= p.inside_fraction_before);
         assert!(report.timing.batch1_ms_per_frame > 0.0);

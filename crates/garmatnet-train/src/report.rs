@@ -101,6 +101,17 @@ pub struct FrameComparison {
     pub winner: String,
 }
 
+/// GarMatNet's error on each part of the data; `None` for an empty part.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TestParts {
+    /// Target (unseen) materials at the training poses: fabric generalisation alone.
+    pub unseen_material: Option<ErrorStats>,
+    /// Training materials at the held-out poses: pose generalisation alone.
+    pub unseen_pose: Option<ErrorStats>,
+    /// The development set: training materials and poses, samples not trained on.
+    pub development: Option<ErrorStats>,
+}
+
 /// Everything [`crate::evaluate`] measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -121,6 +132,10 @@ pub struct Report {
     pub baseline: Option<ErrorStats>,
     /// GarMatNet on the whole test set (also every material at the held-out poses).
     pub garmatnet_all_test: ErrorStats,
+    /// GarMatNet on the parts of the data, to tell pose from fabric generalisation (absent
+    /// from reports written before it existed).
+    #[serde(default)]
+    pub garmatnet_by_part: Option<TestParts>,
     /// Per (material, pose) errors on the comparison set (Figs. 7–8).
     pub per_sample: Vec<SampleErrors>,
     /// Push-out statistics over the whole test set.
@@ -195,6 +210,26 @@ impl Report {
             row("Baseline (TailorNet-style)", b);
         }
         row("GarMatNet, whole test set", &self.garmatnet_all_test);
+        if let Some(parts) = &self.garmatnet_by_part {
+            for (name, part) in [
+                (
+                    "GarMatNet, unseen fabric at training poses",
+                    &parts.unseen_material,
+                ),
+                (
+                    "GarMatNet, training fabrics at unseen poses",
+                    &parts.unseen_pose,
+                ),
+                (
+                    "GarMatNet, development set (seen fabric and pose)",
+                    &parts.development,
+                ),
+            ] {
+                if let Some(e) = part {
+                    row(name, e);
+                }
+            }
+        }
         let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");
         let _ = writeln!(s, "| Material | Pose | Frame | GarMatNet | Baseline |");
         let _ = writeln!(s, "|---|---:|---:|---:|---:|");
