@@ -62,6 +62,10 @@ pub struct TrainOptions {
     /// BLOCK consecutive frames starting at each multiple of EVERY, e.g. 100,10).
     #[arg(long, value_delimiter = ',')]
     pub held_out: Option<Vec<usize>>,
+    /// Training fabrics to hold out as the development set (comma-separated) instead of a
+    /// random 10 %: early stopping then rewards generalising to unseen fabrics.
+    #[arg(long, value_delimiter = ',')]
+    pub dev_materials: Option<Vec<String>>,
     /// Train on an incomplete dataset (missing samples are skipped).
     #[arg(long)]
     pub allow_incomplete: bool,
@@ -127,6 +131,9 @@ impl TrainOptions {
         }
         if let Some(names) = &self.test_materials {
             c.split.test_materials = names.iter().map(|n| n.trim().to_owned()).collect();
+        }
+        if let Some(names) = &self.dev_materials {
+            c.split.dev_materials = names.iter().map(|n| n.trim().to_owned()).collect();
         }
         if let Some(h) = &self.held_out {
             (c.split.held_out_frame_every, c.split.held_out_block) = match h[..] {

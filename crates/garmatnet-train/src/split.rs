@@ -31,8 +31,14 @@ pub struct SplitConfig {
     /// `every = 100, block = 10`: frames 0–9, 100–109, …) hold out as many poses but put
     /// them several frames from any training pose.
     pub held_out_block: usize,
-    /// The dev fraction of the remaining samples (paper: 0.1).
+    /// The dev fraction of the remaining samples (paper: 0.1). Unused with `dev_materials`.
     pub dev_fraction: f64,
+    /// Training fabrics held out as the development set instead of a random fraction: all
+    /// their samples at training poses are dev samples and none is trained on, so early
+    /// stopping (and any choice made on the dev loss) rewards generalising to unseen
+    /// fabrics, the term that dominates the test error. Empty (default): the paper's random
+    /// `dev_fraction`.
+    pub dev_materials: Vec<String>,
     /// The seed of the train/dev shuffle.
     pub seed: u64,
 }
@@ -47,6 +53,7 @@ impl Default for SplitConfig {
             held_out_frame_every: 10,
             held_out_block: 1,
             dev_fraction: 0.1,
+            dev_materials: Vec::new(),
             seed: 42,
         }
     }
@@ -87,6 +94,9 @@ pub struct Split {
     pub test_materials: Vec<usize>,
     /// Indices of the held-out poses.
     pub held_out_poses: Vec<usize>,
+    /// Indices of the dev materials (`config.dev_materials`), if any.
+    #[serde(default)]
+    pub dev_materials: Vec<usize>,
     /// Training samples, sorted.
     pub train: Vec<SampleKey>,
     /// Development (early-stopping) samples, sorted.
@@ -100,9 +110,10 @@ impl Split {
     ///
     /// # Errors
     /// [`Error::UnknownMaterials`] if a target material is not in the dataset;
+    /// [`Error::UnknownMaterials`] for an unknown dev material;
     /// [`Error::InvalidConfig`] for a dev fraction outside (0, 1), `held_out_frame_every = 0`,
-    /// a `held_out_block` outside `1..held_out_frame_every`, or a split that leaves train,
-    /// dev or test empty.
+    /// a `held_out_block` outside `1..held_out_frame_every`, a dev material that is also a
+    /// target material, or a split that leaves train, dev or test empty.
     pub fn new(
         spec: &DatasetSpec,
         samples: &[SampleKey],
@@ -128,6 +139,17 @@ impl Split {
             )));
         }
         let test_materials = material_indices(spec, &config.test_materials)?;
+        let dev_materials = if config.dev_materials.is_empty() {
+            Vec::new()
+        } else {
+            material_indices(spec, &config.dev_materials)?
+        };
+        if let Some(&m) = dev_materials.iter().find(|m| test_materials.contains(m)) {
+            return Err(Error::InvalidConfig(format!(
+                "`{}` is both a test and a dev material; dev materials must be training fabrics",
+                spec.materials[m].name
+            )));
+        }
         let held_out_poses: Vec<usize> = spec
             .frames
             .iter()
@@ -151,8 +173,20 @@ impl Split {
                 test.len()
             )));
         }
-        let mut dev = rest.split_off(rest.len() - dev_count);
-        let mut train = rest;
+        let (mut train, mut dev) = if dev_materials.is_empty() {
+            let dev = rest.split_off(rest.len() - dev_count);
+            (rest, dev)
+        } else {
+            rest.into_iter()
+                .partition(|k: &SampleKey| !dev_materials.contains(&k.material))
+        };
+        if train.is_empty() || dev.is_empty() {
+            return Err(Error::InvalidConfig(format!(
+                "the split leaves {} training and {} dev samples; both need samples",
+                train.len(),
+                dev.len()
+            )));
+        }
         train.sort();
         dev.sort();
         test.sort();
@@ -161,6 +195,7 @@ impl Split {
             config: config.clone(),
             test_materials,
             held_out_poses,
+            dev_materials,
             train,
             dev,
             test,
@@ -194,7 +229,8 @@ impl Split {
                 let leak = test.contains(k)
                     || self.test_materials.contains(&k.material)
                     || self.held_out_poses.binary_search(&k.pose).is_ok()
-                    || (name == "train" && dev.contains(k));
+                    || (name == "train"
+                        && (dev.contains(k) || self.dev_materials.contains(&k.material)));
                 if leak {
                     return Err(Error::Split {
                         path: path.to_owned(),
@@ -334,6 +370,60 @@ mod tests {
         let rest = (5 * 36) as f64;
         assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
         assert_eq!(split.comparison_test().len(), 2 * 4);
+    }
+
+    #[test]
+    fn dev_materials_take_whole_training_fabrics_and_nothing_else() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        let by_fabric = SplitConfig {
+            dev_materials: vec!["M2".into(), "M6".into()],
+            ..config()
+        };
+        let split = Split::new(&spec, &keys, "h", &by_fabric).unwrap();
+        assert_eq!(split.dev_materials, vec![2, 6]);
+        // Every dev sample is a dev fabric at a training pose, and all of those are dev.
+        for k in &keys {
+            let expect_dev = (k.material == 2 || k.material == 6) && k.pose % 10 != 0;
+            assert_eq!(split.dev.contains(k), expect_dev, "{k:?}");
+        }
+        assert_eq!(split.train.len(), 3 * 36);
+        split.check_no_leak(Path::new("s.json")).unwrap();
+        // A dev material's sample in train is a leak; a test material cannot be a dev one.
+        let mut leaky = split.clone();
+        leaky.train.push(SampleKey {
+            material: 2,
+            pose: 1,
+        });
+        assert!(matches!(
+            leaky.check_no_leak(Path::new("s.json")),
+            Err(Error::Split { .. })
+        ));
+        let both = SplitConfig {
+            dev_materials: vec!["M4".into()],
+            ..config()
+        };
+        let err = Split::new(&spec, &keys, "h", &both).unwrap_err();
+        assert!(
+            err.to_string().contains("both a test and a dev material"),
+            "{err}"
+        );
+        let unknown = SplitConfig {
+            dev_materials: vec!["Nope".into()],
+            ..config()
+        };
+        assert!(matches!(
+            Split::new(&spec, &keys, "h", &unknown),
+            Err(Error::UnknownMaterials { .. })
+        ));
+        // Holding out every training fabric leaves nothing to train on.
+        let all = SplitConfig {
+            dev_materials: ["M0", "M2", "M3", "M5", "M6"].map(String::from).to_vec(),
+            ..config()
+        };
+        assert!(matches!(
+            Split::new(&spec, &keys, "h", &all),
+            Err(Error::InvalidConfig(_))
+        ));
     }
 
     #[test]
