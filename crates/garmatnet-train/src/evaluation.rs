@@ -154,6 +154,11 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             }
             non_empty(error_stats(errors.iter()))
         },
+        dev_materials: split
+            .dev_materials
+            .iter()
+            .map(|&m| spec.materials[m].name.clone())
+            .collect(),
     };
 
     // The baseline on the comparison set.
@@ -674,6 +679,22 @@ mod tests {
         for e in [fabric, pose, dev] {
             assert!(e.whole_mm.is_finite() && e.whole_mm <= e.fitting_mm + e.local_mm + 1e-9);
         }
+        // The development row says what the development set is.
+        assert!(parts.dev_materials.is_empty());
+        assert!(
+            report
+                .to_markdown()
+                .contains("development set (seen fabric and pose)")
+        );
+        let mut by_fabric = report.clone();
+        if let Some(p) = &mut by_fabric.garmatnet_by_part {
+            p.dev_materials = vec!["Felt".into()];
+        }
+        assert!(
+            by_fabric
+                .to_markdown()
+                .contains("development set (unseen fabrics Felt at training poses)")
+        );
         let p = report.penetration;
         assert!(p.inside_fraction_after <= p.inside_fraction_before);
         assert!(report.timing.batch1_ms_per_frame > 0.0);
