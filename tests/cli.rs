@@ -293,14 +293,20 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
     Ok(())
 }
 
-#[test]
-fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<()> {
-    let dir = tempfile::tempdir()?;
-    let quick = dir.path().join("quick.json");
+/// Solver settings for toy datasets: 5 Newton iterations, one intermediate step.
+fn quick_solver(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
+    let quick = dir.join("quick.json");
     std::fs::write(
         &quick,
         r#"{"drape": {"max_iterations": 5}, "max_step_rad": 0.3, "intermediate_iterations": 1}"#,
     )?;
+    Ok(quick)
+}
+
+#[test]
+fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
     let simulate = |out: &str, seed: &str| -> anyhow::Result<serde_json::Value> {
         let status = garmatnet()
             .args([
@@ -362,11 +368,7 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
 #[test]
 fn dataset_merge_joins_shards_and_completes_slim_samples() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
-    let quick = dir.path().join("quick.json");
-    std::fs::write(
-        &quick,
-        r#"{"drape": {"max_iterations": 5}, "max_step_rad": 0.3, "intermediate_iterations": 1}"#,
-    )?;
+    let quick = quick_solver(dir.path())?;
     for (shard, out) in [("0/2", "s0"), ("1/2", "s1"), ("0/1", "whole")] {
         let status = garmatnet()
             .args([
