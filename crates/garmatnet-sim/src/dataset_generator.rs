@@ -24,7 +24,7 @@ use crate::garment_drape::{SequenceResume, SequenceSettings, drape_sequence};
 use crate::manifest::{
     BodyInfo, DatasetSpec, MaterialEntry, SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
 };
-use crate::sample_arrays::{SampleArrays, read_points_npy};
+use crate::sample_arrays::{SampleArrays, read_simulated};
 use crate::shard::Shard;
 
 /// The name datasets record for the procedural body.
@@ -271,14 +271,7 @@ pub fn generate_dataset(
             None
         } else {
             let stem = sample_stem(m, next - 1);
-            let saved = read_points_npy(
-                &samples_dir(&config.out).join(&stem).join("simulated.npy"),
-                &stem,
-            )?;
-            let positions = saved
-                .iter()
-                .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
-                .collect();
+            let positions = read_simulated(&samples_dir(&config.out).join(&stem), &stem)?;
             Some(SequenceResume { next, positions })
         };
         let (mut written, mut failed, mut time) = (0, 0, 0.0);

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use garmatnet_core::{Error, Result};
+use garmatnet_core::{Error, Result, Vec3};
 use npyz::{DType, NpyFile, Order, TypeChar, WriterBuilder};
 
 /// One sample's arrays, in metres, world frame of the posed body.
@@ -86,6 +86,19 @@ pub fn write_points_npy(path: &Path, points: &[[f32; 3]]) -> Result<()> {
         .map_err(io)?;
     w.finish().map_err(io)?;
     garmatnet_core::write_bytes_atomic(path, &bytes)
+}
+
+/// The simulated garment of the sample in `sample_dir` (its `simulated.npy`) as solver
+/// positions: what a resumed sequence starts from and what derived arrays are computed from.
+///
+/// # Errors
+/// As [`read_points_npy`].
+pub(crate) fn read_simulated(sample_dir: &Path, sample: &str) -> Result<Vec<Vec3>> {
+    let points = read_points_npy(&sample_dir.join("simulated.npy"), sample)?;
+    Ok(points
+        .iter()
+        .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
+        .collect())
 }
 
 /// Reads a float32 `[n, 3]` `.npy` (C order), naming `sample` in errors. Finiteness is not

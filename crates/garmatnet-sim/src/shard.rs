@@ -2,12 +2,12 @@
 
 use std::path::{Path, PathBuf};
 
-use garmatnet_core::{Error, Result, Vec3};
+use garmatnet_core::{Error, Result};
 
 use crate::dataset::{DatasetWriter, ensure_same_spec, samples_dir, scan_samples};
 use crate::dataset_generator::SampleDeriver;
 use crate::manifest::{DatasetSpec, Manifest};
-use crate::sample_arrays::read_points_npy;
+use crate::sample_arrays::read_simulated;
 
 /// A subset of a dataset's work: shard `index` of `count` takes the materials whose index
 /// `% count == index`.
@@ -113,11 +113,7 @@ pub fn merge_shards(
                     Some(deriver) => deriver,
                     empty => empty.insert(SampleDeriver::for_spec(writer.spec())?),
                 };
-                let simulated = read_points_npy(&from.join("simulated.npy"), &record.stem)?;
-                let x: Vec<Vec3> = simulated
-                    .iter()
-                    .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
-                    .collect();
+                let x = read_simulated(&from, &record.stem)?;
                 let arrays = deriver.arrays(&x, &writer.spec().poses[record.pose])?;
                 writer.write_sample(record.material, record.pose, &arrays, record.stats)?;
                 report.derived += 1;
