@@ -16,6 +16,7 @@ Exits non-zero when the outputs disagree.
 
 import argparse
 import json
+import math
 import struct
 import sys
 import time
@@ -26,6 +27,16 @@ import torch
 from safetensors.torch import load_file
 
 TOLERANCE = 1e-4
+
+# MaterialBounds::STANDARD (crates/garmatnet-core/src/material_bounds.rs): structural V/H,
+# flexion V/H, shear, density.
+BOUNDS = [(10.0, 20_000.0)] * 2 + [(0.01, 2_000.0)] * 2 + [(1.0, 20_000.0), (0.02, 1.0)]
+
+
+def uniform_scaling_direction() -> torch.Tensor:
+    """Material::uniform_scaling_direction: the unit shift of normalised ω under a common scaling."""
+    v = torch.tensor([1.0 / math.log(hi / lo) for lo, hi in BOUNDS], dtype=torch.float64)
+    return v / v.norm()
 
 
 def read_header(path: Path) -> dict:
@@ -42,6 +53,7 @@ class GarMatNet(torch.nn.Module):
     def __init__(self, tensors: dict, prefix: str, config: dict):
         super().__init__()
         self.alpha = float(config["alpha"])
+        self.scale_free = bool(config.get("scale_free_material", False))
         self.layers = {
             name: (tensors[f"{prefix}.{name}.weight"].double(), tensors[f"{prefix}.{name}.bias"].double())
             for name in ("pose_in", "material_in", "merge", "output")
@@ -56,6 +68,9 @@ class GarMatNet(torch.nn.Module):
         return x @ w + b
 
     def forward(self, pose, material):
+        if self.scale_free:
+            u = uniform_scaling_direction()
+            material = material - (material @ u)[:, None] * u[None, :]
         p = torch.tanh(self.linear("pose_in", pose * (1.0 - self.alpha)))
         m = torch.tanh(self.linear("material_in", material * self.alpha))
         h = torch.tanh(self.linear("merge", torch.cat([p, m], dim=1)))  # dropout: eval mode

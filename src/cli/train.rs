@@ -55,6 +55,10 @@ pub struct TrainOptions {
     /// Displacement frame: world or canonical.
     #[arg(long)]
     pub frame: Option<String>,
+    /// Make the nets blind to scaling every stiffness and the density by one factor (a
+    /// static drape does not change under it): they see stiffness-to-weight ratios.
+    #[arg(long)]
+    pub scale_free_material: bool,
     /// The unseen target materials (default: the paper's four), comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub test_materials: Option<Vec<String>>,
@@ -121,6 +125,9 @@ impl TrainOptions {
         }
         if let Some(v) = self.alpha {
             c.alpha = v;
+        }
+        if self.scale_free_material {
+            c.scale_free_material = true;
         }
         if let Some(f) = &self.frame {
             c.displacement_frame = match f.to_ascii_lowercase().as_str() {

@@ -279,6 +279,36 @@ impl Material {
         })
     }
 
+    /// The unit direction in normalised coordinates along which a material moves when every
+    /// stiffness and the density are multiplied by one common factor `c`: each coordinate
+    /// shifts by `ln c / (ln hi − ln lo)`.
+    ///
+    /// Moving along it leaves the static drape (nearly) unchanged: springs, gravity and the
+    /// Coulomb cone all scale by `c`, so the equilibrium is the same; only the fixed contact
+    /// penalty breaks the symmetry, by the sub-millimetre penetration it allows. A network
+    /// that ignores this direction (GarMatNet's `scale_free_material`) sees the 5-d space of
+    /// stiffness-to-weight ratios instead of the 6-d ω.
+    ///
+    /// ```
+    /// use garmatnet_core::Material;
+    ///
+    /// let m = Material::preset("Cotton Poplin")?;
+    /// let (a, b) = (m.to_normalized(), m.scaled(2.0, 2.0)?.to_normalized());
+    /// let u = Material::uniform_scaling_direction();
+    /// let t = (b[0] - a[0]) / u[0];
+    /// for i in 0..6 {
+    ///     assert!((b[i] - a[i] - t * u[i]).abs() < 1e-12);
+    /// }
+    /// # Ok::<(), garmatnet_core::Error>(())
+    /// ```
+    #[must_use]
+    pub fn uniform_scaling_direction() -> [Real; MATERIAL_DIM] {
+        let b = MaterialBounds::STANDARD;
+        let v: [Real; MATERIAL_DIM] = std::array::from_fn(|i| 1.0 / (b.max[i] / b.min[i]).ln());
+        let norm = v.iter().map(|x| x * x).sum::<Real>().sqrt();
+        v.map(|x| x / norm)
+    }
+
     /// The material at normalised coordinates `n` (inverse of [`Material::to_normalized`]).
     ///
     /// # Errors

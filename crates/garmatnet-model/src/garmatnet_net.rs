@@ -8,7 +8,7 @@ use burn::module::{Initializer, Param};
 use burn::nn::{Dropout, DropoutConfig, Linear, LinearConfig};
 use burn::prelude::*;
 use burn::tensor::module::linear;
-use garmatnet_core::{DisplacementFrame, POSE_DIM};
+use garmatnet_core::{DisplacementFrame, Material, POSE_DIM};
 
 use crate::error::{Error, Result};
 
@@ -52,6 +52,13 @@ pub struct GarMatNetConfig {
     /// The frame the predicted displacements are expressed in.
     #[config(default = "DisplacementFrame::World")]
     pub displacement_frame: DisplacementFrame,
+    /// Project ω onto the plane orthogonal to
+    /// [`Material::uniform_scaling_direction`] before the material branch, so scaling every
+    /// stiffness and the density by one factor (which leaves a static drape unchanged) cannot
+    /// change the prediction: the net sees stiffness-to-weight ratios. Default off (the
+    /// paper's net); model files written before this option read as off.
+    #[config(default = false)]
+    pub scale_free_material: bool,
     /// Kaiming-normal gain of the hidden layers (std = gain / √fan_in). 5/3 is the usual gain
     /// for tanh; the output layer uses gain 1 because it feeds no nonlinearity.
     #[config(default = 1.6666666666666667)]
@@ -248,13 +255,24 @@ impl GarMatNet {
             .tanh()
     }
 
-    /// The material branch's activation, tanh(W α ω + b). It depends on ω only, so callers
+    /// The material branch's activation, tanh(W α ω + b) (ω projected first when
+    /// [`GarMatNetConfig::scale_free_material`] is set). It depends on ω only, so callers
     /// that see the same material every frame can cache it.
     ///
     /// # Shapes
     /// - `material`: `[B, 6]`
     /// - output: `[B, material_hidden]`
     pub fn material_features(&self, material: Tensor<2>) -> Tensor<2> {
+        let material = if self.config.scale_free_material {
+            // ω − (ω·u) uᵀ, with u the unit scaling direction.
+            let u = Material::uniform_scaling_direction().map(|x| x as f32);
+            let device = material.device();
+            let column = Tensor::<1>::from_floats(u, &device).reshape([MATERIAL_DIM, 1]);
+            let along = material.clone().matmul(column.clone());
+            material - along.matmul(column.transpose())
+        } else {
+            material
+        };
         self.material_in
             .forward(material.mul_scalar(self.config.alpha))
             .tanh()
@@ -434,6 +452,41 @@ mod tests {
             "alpha = 1 must ignore the pose"
         );
         assert_ne!(a, to_vec(net.forward(p1, m2)), "but not the material");
+    }
+
+    #[test]
+    fn scale_free_material_ignores_a_common_scaling_only() {
+        let dev = cpu();
+        let silk = Material::preset("Silk Charmeuse").unwrap();
+        let heavy = silk.scaled(3.0, 3.0).unwrap();
+        let stiffer = silk.scaled(3.0, 1.0).unwrap();
+        let rows = |ms: [&Material; 3]| {
+            let data: Vec<f32> = ms
+                .iter()
+                .flat_map(|m| m.to_normalized().map(|x| x as f32))
+                .collect();
+            Tensor::<1>::from_floats(data.as_slice(), &dev).reshape([3, MATERIAL_DIM])
+        };
+        let material = rows([&silk, &heavy, &stiffer]);
+        let (pose, _) = random_inputs(1, 6, &dev);
+        let pose = pose.repeat_dim(0, 3);
+        for scale_free in [false, true] {
+            let net = config().with_scale_free_material(scale_free).init(&dev);
+            let out = to_vec(net.forward(pose.clone(), material.clone()));
+            let (a, b, c) = (&out[..150], &out[150..300], &out[300..]);
+            let gap = |x: &[f32], y: &[f32]| {
+                x.iter()
+                    .zip(y)
+                    .map(|(p, q)| (p - q).abs())
+                    .fold(0.0, f32::max)
+            };
+            if scale_free {
+                assert!(gap(a, b) < 1e-5, "a common scaling changed the output");
+            } else {
+                assert!(gap(a, b) > 1e-3, "the paper's net sees density");
+            }
+            assert!(gap(a, c) > 1e-3, "stiffness relative to weight must matter");
+        }
     }
 
     #[test]

@@ -102,6 +102,27 @@ struct Header {
     provenance: TrainingProvenance,
 }
 
+/// Net options added after format version 1, with the value files that predate them meant.
+const OPTIONAL_NET_FIELDS: [(&str, bool); 1] = [("scale_free_material", false)];
+
+/// The model document with every [`OPTIONAL_NET_FIELDS`] entry a net config lacks filled in
+/// (Burn's `Config` derive requires every field, so older files would not parse otherwise).
+fn with_optional_net_fields(mut document: serde_json::Value) -> serde_json::Value {
+    for net in ["fitting", "local"] {
+        if let Some(config) = document
+            .get_mut(net)
+            .and_then(serde_json::Value::as_object_mut)
+        {
+            for (field, value) in OPTIONAL_NET_FIELDS {
+                config
+                    .entry(field)
+                    .or_insert(serde_json::Value::Bool(value));
+            }
+        }
+    }
+    document
+}
+
 impl TemplateInfo {
     /// The template description of `garment` (hash in the hex form datasets use).
     #[must_use]
@@ -306,7 +327,7 @@ impl GarMatNetModel {
                 "checksum mismatch (stored {expected}, computed {actual:016x}): bytes were changed"
             )));
         }
-        let header: Header = serde_json::from_value(value)
+        let header: Header = serde_json::from_value(with_optional_net_fields(value))
             .map_err(|e| corrupt(format!("the model document is malformed ({e})")))?;
         if header.format != FORMAT_NAME {
             return Err(corrupt(format!("document format is not `{FORMAT_NAME}`")));
@@ -374,6 +395,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for rank in [None, Some(5)] {
             let mut model = small_model(3, rank, &dev);
+            model.fitting.config.scale_free_material = rank.is_some();
+            model.local.config.scale_free_material = rank.is_some();
             model.meta.provenance.command = "garmatnet train --seed 3".into();
             model
                 .meta
@@ -389,6 +412,26 @@ mod tests {
             assert_eq!(back.local_norm, model.local_norm);
             assert_eq!(back.fitting.output_rank(), rank);
             assert_eq!(back.fitting.config().alpha, model.fitting.config().alpha);
+            for (a, b) in [(&back.fitting, &model.fitting), (&back.local, &model.local)] {
+                assert_eq!(
+                    a.config().scale_free_material,
+                    b.config().scale_free_material
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn net_configs_written_before_scale_free_material_read_as_off() {
+        let config = small_model(3, None, &cpu()).fitting.config().clone();
+        let mut net = serde_json::to_value(config.with_scale_free_material(true)).unwrap();
+        net.as_object_mut().unwrap().remove("scale_free_material");
+        assert!(serde_json::from_value::<GarMatNetConfig>(net.clone()).is_err());
+        let document = serde_json::json!({ "fitting": net.clone(), "local": net });
+        let document = with_optional_net_fields(document);
+        for name in ["fitting", "local"] {
+            let back: GarMatNetConfig = serde_json::from_value(document[name].clone()).unwrap();
+            assert!(!back.scale_free_material);
         }
     }
 

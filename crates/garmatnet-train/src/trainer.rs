@@ -56,6 +56,9 @@ pub struct TrainConfig {
     pub output_rank: Option<usize>,
     /// The weight controller α (paper §3.6).
     pub alpha: f64,
+    /// Make both nets blind to a common scaling of every stiffness and the density (see
+    /// [`GarMatNetConfig::scale_free_material`]). Default off: the paper's 6-d ω input.
+    pub scale_free_material: bool,
     /// The frame of the predicted displacements.
     pub displacement_frame: DisplacementFrame,
     /// The data split.
@@ -83,6 +86,7 @@ impl Default for TrainConfig {
             dropout: 0.1,
             output_rank: None,
             alpha: 0.5,
+            scale_free_material: false,
             // Canonical won on the 30 x 200 dataset: whole-test error 10.52 vs 10.97 mm
             // (README, "The shipped model and Table 2").
             displacement_frame: DisplacementFrame::Canonical,
@@ -131,6 +135,7 @@ impl TrainConfig {
         .with_dropout(self.dropout)
         .with_output_rank(self.output_rank)
         .with_alpha(self.alpha)
+        .with_scale_free_material(self.scale_free_material)
         .with_displacement_frame(self.displacement_frame)
     }
 
