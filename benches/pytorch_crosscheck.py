@@ -69,7 +69,7 @@ class GarMatNet(torch.nn.Module):
 
     def forward(self, pose, material):
         if self.scale_free:
-            u = uniform_scaling_direction()
+            u = uniform_scaling_direction().to(material.dtype)
             material = material - (material @ u)[:, None] * u[None, :]
         p = torch.tanh(self.linear("pose_in", pose * (1.0 - self.alpha)))
         m = torch.tanh(self.linear("material_in", material * self.alpha))
