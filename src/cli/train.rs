@@ -6,8 +6,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 use garmatnet::core::DisplacementFrame;
 use garmatnet::train::{
-    BaselineConfig, EvalConfig, PAPER_ALPHAS, RunOptions, TrainConfig, sweep_alpha, train,
-    train_baseline,
+    BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS, RunOptions, TrainConfig,
+    sweep_alpha, train, train_baseline,
 };
 
 /// Options shared by every training command (defaults: the paper's protocol).
@@ -25,9 +25,13 @@ pub struct TrainOptions {
     /// Seed of the weights, the split and the shuffles.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Adam's learning rate.
+    /// Adam's learning rate (at the first epoch).
     #[arg(long)]
     pub lr: Option<f64>,
+    /// How the learning rate changes over each net's epochs: `constant` (default) or
+    /// `cosine` (annealed to 1 % of `--lr` at `--max-epochs`).
+    #[arg(long)]
+    pub lr_schedule: Option<LearningRateSchedule>,
     /// Mini-batch size.
     #[arg(long)]
     pub batch_size: Option<usize>,
@@ -70,6 +74,11 @@ pub struct TrainOptions {
     /// random 10 %: early stopping then rewards generalising to unseen fabrics.
     #[arg(long, value_delimiter = ',')]
     pub dev_materials: Option<Vec<String>>,
+    /// Leave samples whose drape did not settle (final residual above this, in vertex
+    /// weights, e.g. 0.1) out of training and development; default: train on every sample.
+    /// Test sets keep them.
+    #[arg(long)]
+    pub max_train_residual: Option<f64>,
     /// Train on an incomplete dataset (missing samples are skipped).
     #[arg(long)]
     pub allow_incomplete: bool,
@@ -96,6 +105,9 @@ impl TrainOptions {
         }
         if let Some(v) = self.lr {
             c.learning_rate = v;
+        }
+        if let Some(v) = self.lr_schedule {
+            c.learning_rate_schedule = v;
         }
         if let Some(v) = self.batch_size {
             c.batch_size = v;
@@ -148,6 +160,9 @@ impl TrainOptions {
                 [every, block] => (every, block),
                 _ => anyhow::bail!("--held-out takes EVERY or EVERY,BLOCK, e.g. 10 or 100,10"),
             };
+        }
+        if let Some(r) = self.max_train_residual {
+            c.split.max_train_residual = Some(r);
         }
         c.allow_incomplete_dataset |= self.allow_incomplete;
         c.quiet |= self.quiet;

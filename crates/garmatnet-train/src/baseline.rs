@@ -28,7 +28,9 @@ use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 use crate::split::{Split, SplitConfig};
 use crate::trainer::{NetSummary, TrainConfig};
-use crate::training_loop::{DeviceSet, LoopSettings, NetSets, Outcome, fit_net, fit_normalizer};
+use crate::training_loop::{
+    DeviceSet, LearningRateSchedule, LoopSettings, NetSets, Outcome, fit_net, fit_normalizer,
+};
 
 /// The baseline format version.
 pub const BASELINE_VERSION: u32 = 1;
@@ -39,8 +41,10 @@ pub const BASELINE_VERSION: u32 = 1;
 pub struct BaselineConfig {
     /// Seed of weights and shuffles.
     pub seed: u64,
-    /// Adam's learning rate.
+    /// Adam's learning rate (at the first epoch).
     pub learning_rate: f64,
+    /// How the learning rate changes over each net's epochs.
+    pub learning_rate_schedule: LearningRateSchedule,
     /// Mini-batch size.
     pub batch_size: usize,
     /// The most epochs per net.
@@ -81,6 +85,7 @@ impl BaselineConfig {
         Self {
             seed: c.seed,
             learning_rate: c.learning_rate,
+            learning_rate_schedule: c.learning_rate_schedule,
             batch_size: c.batch_size,
             max_epochs: c.max_epochs,
             patience_fitting: c.patience_fitting,
@@ -179,7 +184,12 @@ pub fn train_baseline(
 ) -> Result<BaselineManifest> {
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let keys = data.keys();
-    let split = Split::new(data.spec(), &keys, data.dataset_hash(), &config.split)?;
+    let split = Split::new(
+        data.spec(),
+        data.records(),
+        data.dataset_hash(),
+        &config.split,
+    )?;
     let device = select_device(&config.device)?;
     let ad = device.clone().autodiff();
     let n = data.vertex_count();
@@ -194,12 +204,16 @@ pub fn train_baseline(
         let mut own: Vec<SampleKey> = keys
             .iter()
             .copied()
-            .filter(|k| k.material == m && split.held_out_poses.binary_search(&k.pose).is_err())
+            .filter(|k| {
+                k.material == m
+                    && split.held_out_poses.binary_search(&k.pose).is_err()
+                    && split.is_settled(k)
+            })
             .collect();
         if own.len() < 2 {
             return Err(Error::InvalidConfig(format!(
-                "baseline material `{name}` has {} samples outside the held-out poses; at least \
-                 2 are needed",
+                "baseline material `{name}` has {} settled samples outside the held-out poses; \
+                 at least 2 are needed",
                 own.len()
             )));
         }
@@ -258,6 +272,7 @@ pub fn train_baseline(
             let settings = LoopSettings {
                 name: format!("baseline {name} {part}"),
                 learning_rate: config.learning_rate,
+                schedule: config.learning_rate_schedule,
                 batch_size: config.batch_size,
                 max_epochs: config.max_epochs,
                 patience,

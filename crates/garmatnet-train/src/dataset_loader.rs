@@ -29,6 +29,17 @@ pub struct SampleKey {
     pub pose: usize,
 }
 
+impl SampleKey {
+    /// The key of a dataset's sample record.
+    #[must_use]
+    pub fn of(record: &SampleRecord) -> Self {
+        Self {
+            material: record.material,
+            pose: record.pose,
+        }
+    }
+}
+
 /// A validated dataset with the garment template it was made for.
 #[derive(Debug)]
 pub struct TrainingDataset {
@@ -179,13 +190,7 @@ impl TrainingDataset {
     /// Every finished sample's key.
     #[must_use]
     pub fn keys(&self) -> Vec<SampleKey> {
-        self.records()
-            .iter()
-            .map(|r| SampleKey {
-                material: r.material,
-                pose: r.pose,
-            })
-            .collect()
+        self.records().iter().map(SampleKey::of).collect()
     }
 
     /// The rebuilt garment template.

@@ -23,7 +23,8 @@ use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
 use crate::error::{Error, Result};
 use crate::split::{Split, SplitConfig};
 use crate::training_loop::{
-    LoopSettings, NetSets, Outcome, Part, fit_net, fit_normalizer, initial_progress, progress_bar,
+    LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, fit_net, fit_normalizer,
+    initial_progress, progress_bar,
 };
 
 /// Everything that defines a GarMatNet training run (CLI options map onto these fields).
@@ -32,8 +33,11 @@ use crate::training_loop::{
 pub struct TrainConfig {
     /// Seed of the weights, the split's shuffle and the epoch shuffles.
     pub seed: u64,
-    /// Adam's learning rate.
+    /// Adam's learning rate (at the first epoch).
     pub learning_rate: f64,
+    /// How the learning rate changes over each net's epochs (default: constant, as in
+    /// files written before this option).
+    pub learning_rate_schedule: LearningRateSchedule,
     /// Mini-batch size.
     pub batch_size: usize,
     /// The most epochs per net.
@@ -76,6 +80,7 @@ impl Default for TrainConfig {
         Self {
             seed: 42,
             learning_rate: 1e-3,
+            learning_rate_schedule: LearningRateSchedule::Constant,
             batch_size: 32,
             max_epochs: 2000,
             patience_fitting: 50,
@@ -212,6 +217,10 @@ pub struct TrainSummary {
     pub local: Option<NetSummary>,
     /// Training, dev and test sample counts.
     pub samples: [usize; 3],
+    /// Samples no net trained on because their drape did not settle (see
+    /// [`SplitConfig::max_train_residual`]); those in the test set are still tested.
+    #[serde(default)]
+    pub unsettled: usize,
 }
 
 /// Rows of the training labels the PCA of a low-rank head uses at most.
@@ -258,7 +267,7 @@ pub fn train(
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let split = Split::new(
         data.spec(),
-        &data.keys(),
+        data.records(),
         data.dataset_hash(),
         &config.split,
     )?;
@@ -317,10 +326,12 @@ pub fn train(
         fitting: None,
         local: None,
         samples: [split.train.len(), split.dev.len(), split.test.len()],
+        unsettled: split.unsettled.len(),
     };
     let settings = |phase: Phase, patience| LoopSettings {
         name: phase.name().to_owned(),
         learning_rate: config.learning_rate,
+        schedule: config.learning_rate_schedule,
         batch_size: config.batch_size,
         max_epochs: config.max_epochs,
         patience,

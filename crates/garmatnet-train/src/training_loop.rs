@@ -15,6 +15,7 @@ use burn::prelude::*;
 use garmatnet_core::{POSE_DIM, SplitMix64};
 use garmatnet_model::{BaselineNet, GarMatNet, MATERIAL_DIM, OutputNormalizer};
 use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CheckpointDir, CheckpointState, NetProgress};
 use crate::dataset_loader::LoadedSamples;
@@ -179,10 +180,77 @@ impl NetSets {
     }
 }
 
+/// How the learning rate changes over the epochs of one net.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LearningRateSchedule {
+    /// The same rate every epoch (the paper's Adam).
+    #[default]
+    Constant,
+    /// Cosine annealing from the rate at epoch 0 to [`COSINE_FINAL_FRACTION`] of it at
+    /// `max_epochs` (Loshchilov & Hutter 2017, without restarts): large steps while the net
+    /// is far off, small ones to settle into a minimum the constant rate only circles.
+    Cosine,
+}
+
+/// The fraction of the initial learning rate that [`LearningRateSchedule::Cosine`] ends at.
+pub const COSINE_FINAL_FRACTION: f64 = 0.01;
+
+impl LearningRateSchedule {
+    /// Every schedule, for parsing and messages.
+    pub const ALL: [Self; 2] = [Self::Constant, Self::Cosine];
+
+    /// The schedule's name on the command line and in files.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Constant => "constant",
+            Self::Cosine => "cosine",
+        }
+    }
+
+    /// The rate of the epoch that starts after `epoch` finished ones, out of `max_epochs`,
+    /// for initial rate `rate`.
+    #[must_use]
+    pub fn rate(self, rate: f64, epoch: usize, max_epochs: usize) -> f64 {
+        match self {
+            Self::Constant => rate,
+            Self::Cosine => {
+                let t = (epoch as f64 / max_epochs.max(1) as f64).min(1.0);
+                let f = COSINE_FINAL_FRACTION;
+                rate * (f + (1.0 - f) * 0.5 * (1.0 + (std::f64::consts::PI * t).cos()))
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for LearningRateSchedule {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for LearningRateSchedule {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| {
+                Error::InvalidConfig(format!(
+                    "unknown learning-rate schedule `{s}`: use `constant` (the default) or \
+                     `cosine`"
+                ))
+            })
+    }
+}
+
 /// The loop's settings for one net.
 pub(crate) struct LoopSettings {
     pub(crate) name: String,
     pub(crate) learning_rate: f64,
+    pub(crate) schedule: LearningRateSchedule,
     pub(crate) batch_size: usize,
     pub(crate) max_epochs: usize,
     pub(crate) patience: usize,
@@ -261,6 +329,9 @@ pub(crate) fn fit_net<M: Trainable>(
         let mut order: Vec<usize> = (0..n * settings.replicate).map(|i| i % n).collect();
         rng.shuffle(&mut order);
         let mut loss_sum = 0.0;
+        let rate = settings
+            .schedule
+            .rate(settings.learning_rate, state.epoch, settings.max_epochs);
         for batch in order.chunks(settings.batch_size) {
             let index: Vec<i64> = batch.iter().map(|&i| i as i64).collect();
             let index = Tensor::<1, Int>::from_data(TensorData::new(index, [batch.len()]), &device);
@@ -281,7 +352,7 @@ pub(crate) fn fit_net<M: Trainable>(
             }
             loss_sum += value * batch.len() as f64;
             let grads = GradientsParams::from_grads(loss.backward(), &net);
-            net = optimizer.step(settings.learning_rate, net, grads);
+            net = optimizer.step(rate, net, grads);
         }
         let train_loss = loss_sum / order.len().max(1) as f64;
         let dev_loss = mean_loss(&net.valid(), &sets.dev);
@@ -350,6 +421,30 @@ mod tests {
     use crate::trainer::TrainConfig;
 
     #[test]
+    fn the_cosine_schedule_falls_from_the_rate_to_its_final_fraction_and_stays() {
+        let cosine = LearningRateSchedule::Cosine;
+        approx::assert_relative_eq!(cosine.rate(2e-3, 0, 400), 2e-3);
+        approx::assert_relative_eq!(
+            cosine.rate(2e-3, 200, 400),
+            2e-3 * (1.0 + COSINE_FINAL_FRACTION) / 2.0
+        );
+        approx::assert_relative_eq!(cosine.rate(2e-3, 400, 400), 2e-5);
+        approx::assert_relative_eq!(cosine.rate(2e-3, 900, 400), 2e-5);
+        let rates: Vec<f64> = (0..=400).map(|e| cosine.rate(1.0, e, 400)).collect();
+        assert!(rates.windows(2).all(|w| w[1] < w[0]), "strictly falling");
+        assert_eq!(LearningRateSchedule::Constant.rate(2e-3, 399, 400), 2e-3);
+        for k in LearningRateSchedule::ALL {
+            assert_eq!(k.to_string().parse::<LearningRateSchedule>().unwrap(), k);
+        }
+        assert_eq!(
+            " Cosine".parse::<LearningRateSchedule>().unwrap(),
+            LearningRateSchedule::Cosine
+        );
+        let err = "step".parse::<LearningRateSchedule>().unwrap_err();
+        assert!(err.to_string().contains("`constant`"), "{err}");
+    }
+
+    #[test]
     fn normaliser_floors_constant_coordinates_instead_of_using_one_metre() {
         let values = [0.5f32, 0.1, 0.5, 0.3]; // rows [0.5, 0.1], [0.5, 0.3]
         let norm = fit_normalizer(&values, 2).unwrap();
@@ -391,6 +486,7 @@ mod tests {
         let settings = LoopSettings {
             name: "timing".into(),
             learning_rate: 1e-4,
+            schedule: LearningRateSchedule::Constant,
             batch_size: 32,
             max_epochs: 3,
             patience: 100,
