@@ -184,12 +184,7 @@ pub fn train_baseline(
 ) -> Result<BaselineManifest> {
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let keys = data.keys();
-    let split = Split::new(
-        data.spec(),
-        data.records(),
-        data.dataset_hash(),
-        &config.split,
-    )?;
+    let split = data.split(&config.split)?;
     let device = select_device(&config.device)?;
     let ad = device.clone().autodiff();
     let n = data.vertex_count();

@@ -15,6 +15,7 @@ use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::split::{Split, SplitConfig};
 
 /// How far (metres) a stored per-vertex body point may be from the rebuilt template's posed
 /// anchor before the dataset is judged to belong to another template or body.
@@ -185,6 +186,14 @@ impl TrainingDataset {
     #[must_use]
     pub fn records(&self) -> &[SampleRecord] {
         self.reader.samples()
+    }
+
+    /// The split `config` makes of this dataset's finished samples ([`Split::new`]).
+    ///
+    /// # Errors
+    /// As [`Split::new`].
+    pub fn split(&self, config: &SplitConfig) -> Result<Split> {
+        Split::new(self.spec(), self.records(), self.dataset_hash(), config)
     }
 
     /// Every finished sample's key.

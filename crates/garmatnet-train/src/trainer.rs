@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
 use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
 use crate::error::{Error, Result};
-use crate::split::{Split, SplitConfig};
+use crate::split::SplitConfig;
 use crate::training_loop::{
     LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, fit_net, fit_normalizer,
     initial_progress, progress_bar,
@@ -265,12 +265,7 @@ pub fn train(
 ) -> Result<TrainSummary> {
     config.validate()?;
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
-    let split = Split::new(
-        data.spec(),
-        data.records(),
-        data.dataset_hash(),
-        &config.split,
-    )?;
+    let split = data.split(&config.split)?;
     let split_file = split_path(model_path);
     split.check_no_leak(&split_file)?;
     let device = select_device(&config.device)?;
