@@ -36,7 +36,9 @@ pub struct TrainConfig {
     /// Adam's learning rate (at the first epoch).
     pub learning_rate: f64,
     /// How the learning rate changes over each net's epochs (default: constant, as in
-    /// files written before this option).
+    /// files written before this option). Not written at its default, so a default run's
+    /// fingerprint, and the checkpoints of runs begun before the option, stay valid.
+    #[serde(skip_serializing_if = "LearningRateSchedule::is_constant")]
     pub learning_rate_schedule: LearningRateSchedule,
     /// Mini-batch size.
     pub batch_size: usize,
@@ -497,6 +499,31 @@ pub(crate) mod tests {
                 net.initial_dev_mse
             );
         }
+    }
+
+    #[test]
+    fn options_at_their_defaults_leave_the_fingerprint_of_older_runs_alone() {
+        // A default run serialises exactly the fields it did before the learning-rate
+        // schedule and the residual filter existed, so its checkpoints stay resumable.
+        let json = serde_json::to_value(TrainConfig::default()).unwrap();
+        assert!(json.get("learning_rate_schedule").is_none(), "{json}");
+        assert!(json["split"].get("max_train_residual").is_none(), "{json}");
+        let base = TrainConfig::default().fingerprint("d");
+        let cosine = TrainConfig {
+            learning_rate_schedule: LearningRateSchedule::Cosine,
+            ..TrainConfig::default()
+        };
+        let mut filtered = TrainConfig::default();
+        filtered.split.max_train_residual = Some(0.1);
+        assert_ne!(cosine.fingerprint("d"), base);
+        assert_ne!(filtered.fingerprint("d"), base);
+        // Written and read back, the options survive.
+        let back: TrainConfig =
+            serde_json::from_value(serde_json::to_value(&cosine).unwrap()).unwrap();
+        assert_eq!(back, cosine);
+        let back: TrainConfig =
+            serde_json::from_value(serde_json::to_value(&filtered).unwrap()).unwrap();
+        assert_eq!(back, filtered);
     }
 
     #[test]

@@ -209,6 +209,12 @@ impl LearningRateSchedule {
         }
     }
 
+    /// Whether this is [`LearningRateSchedule::Constant`] (the default).
+    #[must_use]
+    pub fn is_constant(&self) -> bool {
+        *self == Self::Constant
+    }
+
     /// The rate of the epoch that starts after `epoch` finished ones, out of `max_epochs`,
     /// for initial rate `rate`.
     #[must_use]
