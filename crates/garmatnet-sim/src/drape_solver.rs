@@ -9,7 +9,8 @@
 //! backtracks on `Φ_k` (Armijo). `h` grows as the residual falls (switched evolution
 //! relaxation) and shrinks after rejected steps, so a cold drape starts as gentle implicit
 //! dynamics and ends as plain Newton. The 3n x 3n pattern never changes (contacts only touch
-//! diagonal blocks), so the AMD ordering and symbolic Cholesky are done once per topology.
+//! diagonal blocks), so the fill-reducing ordering and symbolic Cholesky are done once per
+//! topology.
 //! The residual is a force balance: springs + gravity + contact + the friction force the
 //! Coulomb cone allows, over the vertex's weight.
 

@@ -17,6 +17,7 @@ pub mod garment_drape;
 pub mod grid_sheet;
 pub mod manifest;
 pub mod motion;
+mod nested_dissection;
 mod newton_system;
 pub mod sample_arrays;
 pub mod shard;

@@ -1,11 +1,13 @@
 //! The sparse 3n x 3n Newton system of the drape solver: its fixed block pattern (spring
-//! pairs and diagonal blocks), the symbolic Cholesky analysis done once per topology, and the
-//! numeric factorisation and solve done once per Newton iteration.
+//! pairs and diagonal blocks), the symbolic Cholesky analysis done once per topology (under
+//! the cheaper of two fill-reducing orderings), and the numeric factorisation and solve done
+//! once per Newton iteration.
 
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
     factorize_symbolic_cholesky,
@@ -16,12 +18,14 @@ use garmatnet_core::{Mat3, Real};
 
 use crate::cloth_model::ClothModel;
 use crate::error::{Error, Result};
+use crate::nested_dissection::nested_dissection;
 
 /// Upper-triangle positions of a 3x3 diagonal block, in `(row, column)` order of the slots.
 const DIAG_ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2)];
 
 /// The Newton matrix `M/h^2 + H` of one cloth topology in upper-triangle CSC form, with its
-/// symbolic factorisation (AMD ordering, elimination tree) and the current numeric factor.
+/// symbolic factorisation (fill-reducing ordering, elimination tree) and the current numeric
+/// factor.
 #[derive(Debug, Clone)]
 pub(crate) struct NewtonSystem {
     dim: usize,
@@ -33,6 +37,9 @@ pub(crate) struct NewtonSystem {
     /// columns of the larger), `3 * row + column`.
     spring_slots: Vec<[usize; 9]>,
     symbolic: Arc<SymbolicCholesky<usize>>,
+    /// Whether the nested dissection (rather than minimum degree) ordering was kept.
+    #[cfg_attr(not(test), expect(dead_code, reason = "read by the tests"))]
+    dissection: bool,
     values: Vec<Real>,
     factor: Vec<Real>,
 }
@@ -77,13 +84,34 @@ impl NewtonSystem {
             })
             .collect();
         let pattern = SymbolicSparseColMatRef::new_checked(dim, dim, &col_ptr, None, &row_idx);
-        let symbolic = factorize_symbolic_cholesky(
+        // Two fill-reducing orderings, the one with the smaller factor kept: approximate
+        // minimum degree, and nested dissection of the vertex graph with each vertex's three
+        // unknowns kept together.
+        let amd = symbolic_cholesky(pattern, SymmetricOrdering::Amd)?;
+        let mut adjacency = vec![Vec::new(); n];
+        for (v, neighbours) in lower.iter().enumerate() {
+            for &u in neighbours {
+                adjacency[v].push(u);
+                adjacency[u].push(v);
+            }
+        }
+        let forward: Vec<usize> = nested_dissection(&adjacency)
+            .into_iter()
+            .flat_map(|v| [3 * v, 3 * v + 1, 3 * v + 2])
+            .collect();
+        let mut inverse = vec![0; dim];
+        for (k, &i) in forward.iter().enumerate() {
+            inverse[i] = k;
+        }
+        let dissection = symbolic_cholesky(
             pattern,
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| Error::Factorization(format!("{e:?}")))?;
+            SymmetricOrdering::Custom(PermRef::new_checked(&forward, &inverse, dim)),
+        )?;
+        let (symbolic, dissection) = if dissection.len_val() < amd.len_val() {
+            (dissection, true)
+        } else {
+            (amd, false)
+        };
         Ok(Self {
             dim,
             values: vec![0.0; row_idx.len()],
@@ -93,6 +121,7 @@ impl NewtonSystem {
             diag_slots,
             spring_slots,
             symbolic: Arc::new(symbolic),
+            dissection,
         })
     }
 
@@ -151,12 +180,98 @@ impl NewtonSystem {
     }
 }
 
+/// The symbolic Cholesky analysis of the upper-triangle `pattern` under `ordering`.
+fn symbolic_cholesky(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    ordering: SymmetricOrdering<'_, usize>,
+) -> Result<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(
+        pattern,
+        Side::Upper,
+        ordering,
+        CholeskySymbolicParams::default(),
+    )
+    .map_err(|e| Error::Factorization(format!("{e:?}")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::cloth_model::SpringSpec;
     use approx::assert_relative_eq;
-    use garmatnet_core::Vec3;
+    use garmatnet_core::{CapsuleBody, Garment, Material, Resolution, Vec3};
+
+    use crate::garment_drape::cloth_from_garment;
+
+    /// The T-shirt's cloth model of Cotton Poplin at `resolution`.
+    fn tshirt(resolution: Resolution) -> ClothModel {
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(resolution, &body).unwrap();
+        cloth_from_garment(&garment, &Material::preset("Cotton Poplin").unwrap()).unwrap()
+    }
+
+    #[test]
+    fn nested_dissection_is_kept_where_it_factors_cheaper() {
+        // Measured: 2.49 M factor entries against minimum degree's 2.90 M at paper
+        // resolution (factorisation 29 vs 38 ms); at default resolution minimum degree wins
+        // narrowly (1.51 vs 1.56 M) and is kept, so default-resolution drapes are unchanged.
+        let paper = NewtonSystem::new(&tshirt(Resolution::Paper)).unwrap();
+        assert!(paper.dissection);
+        assert!(paper.factor_len() < 2_700_000, "{}", paper.factor_len());
+        assert!(
+            !NewtonSystem::new(&tshirt(Resolution::Default))
+                .unwrap()
+                .dissection
+        );
+    }
+
+    #[test]
+    fn solves_the_tshirt_system_under_its_ordering() {
+        // A mass-plus-stiffness matrix of the paper T-shirt (as Newton assembles it): the
+        // solve must invert it whatever ordering was kept.
+        let model = tshirt(Resolution::Paper);
+        let mut system = NewtonSystem::new(&model).unwrap();
+        let n = model.vertex_count();
+        let mut diagonal: Vec<Mat3> = model
+            .masses()
+            .iter()
+            .map(|m| Mat3::identity() * (m / 0.01))
+            .collect();
+        let coupling: Vec<Mat3> = model
+            .springs()
+            .iter()
+            .map(|s| {
+                let k = Mat3::identity() * s.stiffness;
+                diagonal[s.a] += k;
+                diagonal[s.b] += k;
+                -k
+            })
+            .collect();
+        system.factorize(&diagonal, &coupling).unwrap();
+        let x: Vec<Real> = (0..3 * n)
+            .map(|i| ((i * 7919) % 1000) as Real / 500.0 - 1.0)
+            .collect();
+        // b = A x from the blocks.
+        let mut b = vec![0.0; 3 * n];
+        let block = |b: &mut [Real], row: usize, m: &Mat3, col: usize| {
+            for r in 0..3 {
+                for c in 0..3 {
+                    b[3 * row + r] += m[(r, c)] * x[3 * col + c];
+                }
+            }
+        };
+        for (v, d) in diagonal.iter().enumerate() {
+            block(&mut b, v, d, v);
+        }
+        for (s, k) in model.springs().iter().zip(&coupling) {
+            block(&mut b, s.a, k, s.b);
+            block(&mut b, s.b, k, s.a);
+        }
+        system.solve(&mut b);
+        for (got, want) in b.iter().zip(&x) {
+            assert_relative_eq!(*got, *want, epsilon = 1e-8);
+        }
+    }
 
     #[test]
     fn solves_a_small_spring_chain_exactly() {
