@@ -16,8 +16,8 @@ use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 use crate::report::{
-    ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
-    TestParts, Timing, spread_mm,
+    ErrorStats, FabricLookup, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report,
+    SampleErrors, TestParts, Timing, spread_mm,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -161,6 +161,8 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             .collect(),
     };
 
+    let fabric_lookup = fabric_lookup(&data, &split, &comparison)?;
+
     // The baseline on the comparison set.
     let baseline = match &inputs.baseline {
         Some(dir) => Some(Baseline::load(dir, &device)?),
@@ -254,6 +256,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         baseline: baseline_stats,
         garmatnet_all_test,
         garmatnet_by_part: Some(by_part),
+        fabric_lookup,
         per_sample,
         penetration: penetration.finish(config.push_out_epsilon),
         timing,
@@ -263,6 +266,115 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     };
     report.write(&inputs.out_dir)?;
     Ok(report)
+}
+
+/// The training fabrics' true drapes as predictions of the `comparison` samples (see
+/// [`FabricLookup`]); `None` when no training fabric was draped at those poses.
+fn fabric_lookup(
+    data: &TrainingDataset,
+    split: &Split,
+    comparison: &[SampleKey],
+) -> Result<Option<FabricLookup>> {
+    let spec = data.spec();
+    let training: Vec<usize> = (0..spec.materials.len())
+        .filter(|m| !split.test_materials.contains(m) && !split.dev_materials.contains(m))
+        .collect();
+    let have = |material: usize, pose: usize| {
+        data.records()
+            .binary_search_by_key(&(material, pose), |r| (r.material, r.pose))
+            .is_ok()
+    };
+    let omega = |m: usize| spec.materials[m].omega_normalized;
+    let mut nearest_to = Vec::new();
+    let (mut nearest_errors, mut best_errors) = (Vec::new(), Vec::new());
+    for &target in &split.test_materials {
+        let keys: Vec<SampleKey> = comparison
+            .iter()
+            .copied()
+            .filter(|k| k.material == target)
+            .collect();
+        let Some(nearest) =
+            nearest_material(&omega(target), training.iter().map(|&m| (m, omega(m))))
+        else {
+            return Ok(None);
+        };
+        nearest_to.push((
+            spec.materials[target].name.clone(),
+            spec.materials[nearest].name.clone(),
+        ));
+        for key in keys {
+            let truth = data.truth(key)?;
+            let mut best: Option<(f64, VertexErrors)> = None;
+            for &m in &training {
+                if !have(m, key.pose) {
+                    continue;
+                }
+                let other = data.truth(SampleKey {
+                    material: m,
+                    pose: key.pose,
+                })?;
+                let errors = vertex_errors(&truth, &truth_as_prediction(&other));
+                if m == nearest {
+                    nearest_errors.push(vertex_errors(&truth, &truth_as_prediction(&other)));
+                }
+                let whole: f64 = errors.whole.iter().sum();
+                if best.as_ref().is_none_or(|(b, _)| whole < *b) {
+                    best = Some((whole, errors));
+                }
+            }
+            let Some((_, best)) = best else {
+                return Ok(None);
+            };
+            best_errors.push(best);
+        }
+    }
+    if nearest_errors.len() != best_errors.len() || best_errors.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(FabricLookup {
+        nearest_material: error_stats(nearest_errors.iter()),
+        nearest_to,
+        best_material: error_stats(best_errors.iter()),
+    }))
+}
+
+/// The index of the candidate `(material, ω)` nearest to `target` (Euclidean; the first on a
+/// tie), or `None` without candidates.
+fn nearest_material(
+    target: &[f64; MATERIAL_DIM],
+    candidates: impl Iterator<Item = (usize, [f64; MATERIAL_DIM])>,
+) -> Option<usize> {
+    let distance = |w: &[f64; MATERIAL_DIM]| {
+        w.iter()
+            .zip(target)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+    };
+    candidates
+        .map(|(m, w)| (m, distance(&w)))
+        .fold(None, |best: Option<(usize, f64)>, (m, d)| match best {
+            Some((_, bd)) if bd <= d => best,
+            _ => Some((m, d)),
+        })
+        .map(|(m, _)| m)
+}
+
+/// Another sample's true drape, as the displacements a model would predict.
+fn truth_as_prediction(other: &crate::dataset_loader::SampleTruth) -> Prediction {
+    Prediction {
+        d_fitting: other
+            .smoothed
+            .iter()
+            .zip(&other.body_points)
+            .map(|(s, b)| s - b)
+            .collect(),
+        d_local: other
+            .simulated
+            .iter()
+            .zip(&other.smoothed)
+            .map(|(g, s)| g - s)
+            .collect(),
+    }
 }
 
 fn frame_name(frame: DisplacementFrame) -> &'static str {
@@ -686,6 +798,24 @@ mod tests {
                 .to_markdown()
                 .contains("development set (seen fabric and pose)")
         );
+        // The fabric-lookup reference: each target's nearest training fabric, never a target;
+        // the oracle's pick is at least as close as the nearest fabric's, sample by sample.
+        let lookup = report.fabric_lookup.clone().unwrap();
+        assert_eq!(lookup.nearest_material.samples, report.garmatnet.samples);
+        assert_eq!(lookup.best_material.samples, report.garmatnet.samples);
+        assert_eq!(lookup.nearest_to.len(), report.test_materials.len());
+        for (target, near) in &lookup.nearest_to {
+            assert!(report.test_materials.contains(target));
+            assert!(!report.test_materials.contains(near), "{near}");
+        }
+        let (near, best) = (lookup.nearest_material, lookup.best_material);
+        assert!(best.whole_mm <= near.whole_mm + 1e-9, "{best:?} {near:?}");
+        assert!(best.whole_mm > 0.0 && best.whole_mm <= best.fitting_mm + best.local_mm + 1e-9);
+        assert!(
+            report
+                .to_markdown()
+                .contains("Nearest training fabric in ω")
+        );
         let mut by_fabric = report.clone();
         if let Some(p) = &mut by_fabric.garmatnet_by_part {
             p.dev_materials = vec!["Felt".into()];
@@ -744,6 +874,21 @@ mod tests {
             err.contains("frames 0–1 of every 20") && err.contains("--held-out"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn the_nearest_material_is_the_closest_candidate_and_the_first_on_a_tie() {
+        let target = [0.5; MATERIAL_DIM];
+        let at = |x: f64| {
+            let mut w = [0.5; MATERIAL_DIM];
+            w[2] = x;
+            w
+        };
+        let candidates = [(7, at(0.9)), (3, at(0.6)), (9, at(0.4)), (1, at(0.45))];
+        assert_eq!(nearest_material(&target, candidates.into_iter()), Some(1));
+        let tie = [(4, at(0.6)), (2, at(0.4))];
+        assert_eq!(nearest_material(&target, tie.into_iter()), Some(4));
+        assert_eq!(nearest_material(&target, std::iter::empty()), None);
     }
 
     #[test]
