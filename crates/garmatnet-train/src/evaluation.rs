@@ -67,6 +67,7 @@ pub struct EvalInputs {
 }
 
 /// Per-vertex errors (metres) of one prediction.
+#[derive(Clone)]
 pub(crate) struct VertexErrors {
     pub(crate) fitting: Vec<f64>,
     pub(crate) local: Vec<f64>,
@@ -315,7 +316,7 @@ fn fabric_lookup(
                 })?;
                 let errors = vertex_errors(&truth, &truth_as_prediction(&other));
                 if m == nearest {
-                    nearest_errors.push(vertex_errors(&truth, &truth_as_prediction(&other)));
+                    nearest_errors.push(errors.clone());
                 }
                 let whole: f64 = errors.whole.iter().sum();
                 if best.as_ref().is_none_or(|(b, _)| whole < *b) {
@@ -886,7 +887,7 @@ mod tests {
         };
         let candidates = [(7, at(0.9)), (3, at(0.6)), (9, at(0.4)), (1, at(0.45))];
         assert_eq!(nearest_material(&target, candidates.into_iter()), Some(1));
-        let tie = [(4, at(0.6)), (2, at(0.4))];
+        let tie = [(4, at(0.75)), (2, at(0.25))];
         assert_eq!(nearest_material(&target, tie.into_iter()), Some(4));
         assert_eq!(nearest_material(&target, std::iter::empty()), None);
     }
