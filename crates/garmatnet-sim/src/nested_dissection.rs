@@ -74,26 +74,54 @@ impl State<'_> {
             self.order.extend(set);
             return;
         }
+        // The connected components, in the order of their first vertex in `set`, found in one
+        // pass and each given its own stamp. All but the last are ordered one after the other
+        // (recursively; a run of them that is down to a leaf's size is kept whole, in `set`'s
+        // order), and the last is split below: a loop, so many small components neither grow
+        // the stack nor cost a pass over the rest each.
         self.stamp += 1;
-        let stamp = self.stamp;
+        let base = self.stamp;
         for &v in &set {
-            self.member[v] = stamp;
+            self.member[v] = base;
         }
-        let component = self.bfs(set[0], stamp);
-        if component.len() < set.len() {
-            let rest: Vec<usize> = set
-                .iter()
-                .copied()
-                .filter(|&v| self.level[v] == usize::MAX)
-                .collect();
-            self.clear_levels(&component);
-            self.dissect(component);
-            self.dissect(rest);
-            return;
+        let mut components = Vec::new();
+        for &v in &set {
+            if self.member[v] == base {
+                let component = self.bfs(v, base);
+                self.stamp = base + components.len() + 1;
+                for &u in &component {
+                    self.member[u] = self.stamp;
+                }
+                components.push(component);
+            }
+        }
+        for c in &components {
+            self.clear_levels(c);
+        }
+        let count = components.len();
+        let stamp = base + count;
+        let mut remaining = set.len();
+        let mut last = Vec::new();
+        for (i, c) in components.into_iter().enumerate() {
+            if remaining <= LEAF_SIZE {
+                let later = (base + 1 + i)..=stamp;
+                self.order.extend(
+                    set.iter()
+                        .copied()
+                        .filter(|v| later.contains(&self.member[*v])),
+                );
+                return;
+            }
+            remaining -= c.len();
+            if i + 1 < count {
+                self.dissect(c);
+            } else {
+                last = c;
+            }
         }
         // A pseudo-peripheral start (the end of a breadth-first search, twice) gives many
         // thin levels.
-        let mut reached = component;
+        let mut reached = last;
         for _ in 0..2 {
             let far = reached[reached.len() - 1];
             self.clear_levels(&reached);
@@ -180,6 +208,9 @@ mod tests {
         adjacency.extend([Vec::new(), Vec::new()]);
         let order = nested_dissection(&adjacency);
         assert!(is_permutation(&order, adjacency.len()));
+        // Many components (100,000 isolated edges) are peeled in a loop, not by recursion.
+        let pairs: Vec<Vec<usize>> = (0..200_000).map(|v| vec![v ^ 1]).collect();
+        assert!(is_permutation(&nested_dissection(&pairs), pairs.len()));
     }
 
     /// Sizes of the connected components of the graph without the `removed` vertices.
