@@ -39,6 +39,23 @@ def uniform_scaling_direction() -> torch.Tensor:
     return v / v.norm()
 
 
+def rotation_minus_identity(pose: torch.Tensor) -> torch.Tensor:
+    """PoseEncoding::RotationMatrix: each joint's R(theta_j) - I by Rodrigues, [B, 72] -> [B, 216]."""
+    x = pose.reshape(pose.shape[0], 24, 3)
+    angle = x.norm(dim=2, keepdim=True)[..., None]  # [B, 24, 1, 1]
+    safe = torch.where(angle > 0, angle, torch.ones_like(angle))
+    sin_over = torch.where(angle > 0, torch.sin(safe) / safe, torch.ones_like(angle))
+    one_minus_cos_over = torch.where(angle > 0, (1 - torch.cos(safe)) / safe**2, 0.5 * torch.ones_like(angle))
+    zero = torch.zeros_like(x[..., 0])
+    cross = torch.stack([
+        torch.stack([zero, -x[..., 2], x[..., 1]], dim=-1),
+        torch.stack([x[..., 2], zero, -x[..., 0]], dim=-1),
+        torch.stack([-x[..., 1], x[..., 0], zero], dim=-1),
+    ], dim=-2)  # [B, 24, 3, 3]
+    outer = x[..., :, None] * x[..., None, :] - angle**2 * torch.eye(3, dtype=x.dtype)
+    return (sin_over * cross + one_minus_cos_over * outer).reshape(pose.shape[0], 216)
+
+
 def read_header(path: Path) -> dict:
     """The garmatnet JSON document in the safetensors __metadata__."""
     with open(path, "rb") as f:
@@ -54,6 +71,9 @@ class GarMatNet(torch.nn.Module):
         super().__init__()
         self.alpha = float(config["alpha"])
         self.scale_free = bool(config.get("scale_free_material", False))
+        self.pose_encoding = config.get("pose_encoding", "axis_angle")
+        if self.pose_encoding not in ("axis_angle", "rotation_matrix"):
+            raise ValueError(f"unknown pose_encoding {self.pose_encoding!r}")
         self.layers = {
             name: (tensors[f"{prefix}.{name}.weight"].double(), tensors[f"{prefix}.{name}.bias"].double())
             for name in ("pose_in", "material_in", "merge", "output")
@@ -71,6 +91,8 @@ class GarMatNet(torch.nn.Module):
         if self.scale_free:
             u = uniform_scaling_direction().to(material.dtype)
             material = material - (material @ u)[:, None] * u[None, :]
+        if self.pose_encoding == "rotation_matrix":
+            pose = rotation_minus_identity(pose)
         p = torch.tanh(self.linear("pose_in", pose * (1.0 - self.alpha)))
         m = torch.tanh(self.linear("material_in", material * self.alpha))
         h = torch.tanh(self.linear("merge", torch.cat([p, m], dim=1)))  # dropout: eval mode

@@ -87,8 +87,9 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     assert!(dir.join("model.safetensors").exists() && dir.join("model.split.json").exists());
 
     // Leave drapes that did not settle out of training (this 10-iteration solver leaves
-    // many), with an annealed learning rate: the split lists them, none is trained on, and
-    // the test set is the same.
+    // many), with an annealed learning rate and rotation-matrix pose features: the split
+    // lists them, none is trained on, the test set is the same, and the model file says how
+    // its nets read the pose.
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("data/manifest.json"))?)?;
     let residual = |m: &serde_json::Value, p: &serde_json::Value| -> f64 {
@@ -113,11 +114,30 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         &[
             &["train", "--out", "settled.safetensors"][..],
             &["--max-train-residual", &median, "--lr-schedule", "cosine"],
+            &["--pose-encoding", "rotation-matrix"],
             &small,
         ]
         .concat(),
         dir,
     )?;
+    let header = |name: &str| -> anyhow::Result<serde_json::Value> {
+        let bytes = std::fs::read(dir.join(name))?;
+        let length = u64::from_le_bytes(bytes[..8].try_into()?) as usize;
+        let outer: serde_json::Value = serde_json::from_slice(&bytes[8..8 + length])?;
+        let document = outer["__metadata__"]["garmatnet"]
+            .as_str()
+            .unwrap_or_default();
+        Ok(serde_json::from_str(document)?)
+    };
+    for (name, encoding) in [
+        ("settled.safetensors", "rotation_matrix"),
+        ("model.safetensors", "axis_angle"),
+    ] {
+        let h = header(name)?;
+        for net in ["fitting", "local"] {
+            assert_eq!(h[net]["pose_encoding"], encoding, "{name} {net}");
+        }
+    }
     let read_split = |name: &str| -> anyhow::Result<serde_json::Value> {
         Ok(serde_json::from_slice(&std::fs::read(dir.join(name))?)?)
     };
@@ -146,6 +166,24 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     .unwrap_err()
     .to_string();
     assert!(bad.contains("cosine"), "{bad}");
+    let bad = garmatnet(
+        &[
+            &[
+                "train",
+                "--out",
+                "bad.safetensors",
+                "--pose-encoding",
+                "euler",
+            ][..],
+            &small,
+        ]
+        .concat(),
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(bad.contains("rotation-matrix"), "{bad}");
+    assert!(!dir.join("bad.safetensors").exists());
     garmatnet(
         &[&["train-baseline", "--out", "baseline"][..], &small].concat(),
         dir,

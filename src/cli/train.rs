@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Args;
 use garmatnet::core::DisplacementFrame;
+use garmatnet::model::PoseEncoding;
 use garmatnet::train::{
     BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS, RunOptions, TrainConfig,
     sweep_alpha, train, train_baseline,
@@ -63,6 +64,10 @@ pub struct TrainOptions {
     /// static drape does not change under it): they see stiffness-to-weight ratios.
     #[arg(long)]
     pub scale_free_material: bool,
+    /// How the nets read the pose: `axis-angle` (the paper's 72 numbers, default) or
+    /// `rotation-matrix` (each joint's R − I, 216 numbers).
+    #[arg(long)]
+    pub pose_encoding: Option<String>,
     /// The unseen target materials (default: the paper's four), comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub test_materials: Option<Vec<String>>,
@@ -140,6 +145,15 @@ impl TrainOptions {
         }
         if self.scale_free_material {
             c.scale_free_material = true;
+        }
+        if let Some(e) = &self.pose_encoding {
+            c.pose_encoding = match e.to_ascii_lowercase().replace('_', "-").as_str() {
+                "axis-angle" => PoseEncoding::AxisAngle,
+                "rotation-matrix" => PoseEncoding::RotationMatrix,
+                other => {
+                    anyhow::bail!("--pose-encoding {other}: use axis-angle or rotation-matrix")
+                }
+            };
         }
         if let Some(f) = &self.frame {
             c.displacement_frame = match f.to_ascii_lowercase().as_str() {

@@ -8,12 +8,99 @@ use burn::module::{Initializer, Param};
 use burn::nn::{Dropout, DropoutConfig, Linear, LinearConfig};
 use burn::prelude::*;
 use burn::tensor::module::linear;
-use garmatnet_core::{DisplacementFrame, Material, POSE_DIM};
+use garmatnet_core::{DisplacementFrame, JOINT_COUNT, Material, POSE_DIM};
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
 /// The number of material coordinates ω (paper §3.1).
 pub const MATERIAL_DIM: usize = 6;
+
+/// How the pose branch reads θ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseEncoding {
+    /// The 72 axis-angle numbers as given (the paper's input).
+    #[default]
+    AxisAngle,
+    /// Each joint's rotation matrix minus the identity, R(θⱼ) − I, row-major: 24 × 9 = 216
+    /// numbers (SMPL's pose-blend-shape feature). Zero at the rest pose, continuous in the
+    /// rotation (axis-angle jumps where a joint's angle crosses π), and each entry is a
+    /// smooth function of the joint's rotation rather than of its angle and axis separately.
+    RotationMatrix,
+}
+
+impl PoseEncoding {
+    /// Whether this is the paper's axis-angle input (the default).
+    #[must_use]
+    pub fn is_axis_angle(&self) -> bool {
+        *self == Self::AxisAngle
+    }
+
+    /// The width of the encoded pose, the pose branch's input.
+    #[must_use]
+    pub fn width(self) -> usize {
+        match self {
+            Self::AxisAngle => POSE_DIM,
+            Self::RotationMatrix => JOINT_COUNT * 9,
+        }
+    }
+
+    /// Encodes a batch of poses.
+    ///
+    /// # Shapes
+    /// - `pose`: `[B, 72]` (axis-angle, radians)
+    /// - output: `[B, self.width()]`
+    pub fn encode(self, pose: Tensor<2>) -> Tensor<2> {
+        match self {
+            Self::AxisAngle => pose,
+            Self::RotationMatrix => rotation_minus_identity(pose),
+        }
+    }
+}
+
+/// R(θⱼ) − I for every joint by Rodrigues' formula, written so it stays accurate at small
+/// angles: R − I = (sin a / a) [x]ₓ + ((1 − cos a) / a²) (x xᵀ − a² I) with a = |x|, and
+/// 1 − cos a = 2 sin²(a / 2).
+///
+/// # Shapes
+/// - `pose`: `[B, 72]`
+/// - output: `[B, 216]`, joint-major, each joint's 3 × 3 block row-major
+fn rotation_minus_identity(pose: Tensor<2>) -> Tensor<2> {
+    let [batch, _] = pose.dims();
+    let x = pose.reshape([batch, JOINT_COUNT, 3]);
+    let squared = x.clone().powi_scalar(2).sum_dim(2); // [B, 24, 1]
+    // The tiny shift keeps a = 0 (the rest pose) finite; its effect is below f32 precision
+    // wherever a is not itself negligible.
+    let angle = squared.clone().add_scalar(1e-12).sqrt();
+    let sin_over = angle.clone().sin().div(angle.clone());
+    let half_sin = angle.clone().mul_scalar(0.5).sin();
+    let one_minus_cos_over = half_sin
+        .powi_scalar(2)
+        .mul_scalar(2.0)
+        .div(angle.powi_scalar(2));
+    let c = |i: usize| x.clone().narrow(2, i, 1);
+    let (x0, x1, x2) = (c(0), c(1), c(2));
+    let s = |v: Tensor<3>| sin_over.clone().mul(v);
+    let k = |a: &Tensor<3>, b: &Tensor<3>| one_minus_cos_over.clone().mul(a.clone().mul(b.clone()));
+    let diagonal = |v: &Tensor<3>| {
+        one_minus_cos_over
+            .clone()
+            .mul(v.clone().powi_scalar(2).sub(squared.clone()))
+    };
+    let entries = vec![
+        diagonal(&x0),
+        k(&x0, &x1).sub(s(x2.clone())),
+        k(&x0, &x2).add(s(x1.clone())),
+        k(&x0, &x1).add(s(x2.clone())),
+        diagonal(&x1),
+        k(&x1, &x2).sub(s(x0.clone())),
+        k(&x0, &x2).sub(s(x1.clone())),
+        k(&x1, &x2).add(s(x0.clone())),
+        diagonal(&x2),
+    ];
+    Tensor::cat(entries, 2).reshape([batch, JOINT_COUNT * 9])
+}
 
 /// Configuration of a [`GarMatNet`].
 ///
@@ -59,6 +146,10 @@ pub struct GarMatNetConfig {
     /// paper's net); model files written before this option read as off.
     #[config(default = false)]
     pub scale_free_material: bool,
+    /// How the pose branch reads θ. Default axis-angle (the paper's net); model files
+    /// written before this option read as axis-angle.
+    #[config(default = "PoseEncoding::AxisAngle")]
+    pub pose_encoding: PoseEncoding,
     /// Kaiming-normal gain of the hidden layers (std = gain / √fan_in). 5/3 is the usual gain
     /// for tanh; the output layer uses gain 1 because it feeds no nonlinearity.
     #[config(default = 1.6666666666666667)]
@@ -163,7 +254,7 @@ impl GarMatNetConfig {
             None => (None, None),
         };
         GarMatNet {
-            pose_in: layer(self.pose_dim, self.pose_hidden, &hidden_init),
+            pose_in: layer(self.pose_encoding.width(), self.pose_hidden, &hidden_init),
             material_in: layer(self.material_dim, self.material_hidden, &hidden_init),
             merge: layer(
                 self.pose_hidden + self.material_hidden,
@@ -244,14 +335,20 @@ impl GarMatNet {
         self.forward_all(hidden)
     }
 
-    /// The pose branch's activation, tanh(W (1 − α) θ + b).
+    /// The pose branch's activation, tanh(W (1 − α) e(θ) + b), with e the configured
+    /// [`PoseEncoding`].
     ///
     /// # Shapes
     /// - `pose`: `[B, 72]`
     /// - output: `[B, pose_hidden]`
     pub fn pose_features(&self, pose: Tensor<2>) -> Tensor<2> {
         self.pose_in
-            .forward(pose.mul_scalar(1.0 - self.config.alpha))
+            .forward(
+                self.config
+                    .pose_encoding
+                    .encode(pose)
+                    .mul_scalar(1.0 - self.config.alpha),
+            )
             .tanh()
     }
 
@@ -486,6 +583,68 @@ mod tests {
                 assert!(gap(a, b) > 1e-3, "the paper's net sees density");
             }
             assert!(gap(a, c) > 1e-3, "stiffness relative to weight must matter");
+        }
+    }
+
+    #[test]
+    fn rotation_encoding_is_rodrigues_at_every_angle() {
+        use garmatnet_core::math::{Mat3, Rot3, Vec3};
+        let dev = cpu();
+        // Zero, tiny, moderate and near-π angles about assorted axes, one per joint.
+        let mut rng = garmatnet_core::SplitMix64::new(9);
+        let joints: Vec<Vec3> = (0..2 * JOINT_COUNT)
+            .map(|j| {
+                let axis =
+                    Vec3::new(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), 0.3).normalize();
+                let angle = [0.0, 1e-7, 1e-3, 0.4, 1.5, 3.1][j % 6];
+                axis * angle
+            })
+            .collect();
+        let pose: Vec<f32> = joints
+            .iter()
+            .flat_map(|v| v.iter().map(|&x| x as f32))
+            .collect();
+        let pose = Tensor::<1>::from_floats(pose.as_slice(), &dev).reshape([2, POSE_DIM]);
+        let encoded = PoseEncoding::RotationMatrix.encode(pose);
+        assert_eq!(encoded.dims(), [2, PoseEncoding::RotationMatrix.width()]);
+        let got = to_vec(encoded);
+        for (j, v) in joints.iter().enumerate() {
+            let want = Rot3::from_scaled_axis(*v).into_inner() - Mat3::identity();
+            for r in 0..3 {
+                for c in 0..3 {
+                    assert_abs_diff_eq!(
+                        f64::from(got[9 * j + 3 * r + c]),
+                        want[(r, c)],
+                        epsilon = 2e-6
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rotation_encoding_sees_rotations_not_their_axis_angle_spelling() {
+        let dev = cpu();
+        // One joint at 3.0 rad about x, and the same rotation written as 3.0 − 2π about x:
+        // axis-angle inputs far apart, one rotation.
+        let mut a = vec![0.0f32; 2 * POSE_DIM];
+        a[3] = 3.0;
+        a[POSE_DIM + 3] = (3.0 - std::f64::consts::TAU) as f32;
+        let pose = Tensor::<1>::from_floats(a.as_slice(), &dev).reshape([2, POSE_DIM]);
+        let (_, m) = random_inputs(1, 7, &dev);
+        let m = m.repeat_dim(0, 2);
+        for (encoding, same) in [
+            (PoseEncoding::RotationMatrix, true),
+            (PoseEncoding::AxisAngle, false),
+        ] {
+            let net = config().with_pose_encoding(encoding).init(&dev);
+            let out = to_vec(net.forward(pose.clone(), m.clone()));
+            let gap = out[..150]
+                .iter()
+                .zip(&out[150..])
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f32::max);
+            assert_eq!(gap < 1e-5, same, "{encoding:?}: gap {gap}");
         }
     }
 

@@ -4,7 +4,7 @@
 //! A standard safetensors file (loadable by `safetensors.numpy.load_file` or PyTorch):
 //! - tensors, for `net` in `fitting`, `local` (f32, Burn's `[in, out]` weight layout — the
 //!   transpose of `torch.nn.Linear.weight`):
-//!   `{net}.pose_in.weight [72, pose_hidden]`, `{net}.pose_in.bias [pose_hidden]`,
+//!   `{net}.pose_in.weight [72 or 216, pose_hidden]` (the pose encoding's width), `{net}.pose_in.bias [pose_hidden]`,
 //!   `{net}.material_in.weight [6, material_hidden]`, `{net}.material_in.bias`,
 //!   `{net}.merge.weight [pose_hidden + material_hidden, hidden]`, `{net}.merge.bias`,
 //!   `{net}.output.weight [hidden, 3n or k]`, `{net}.output.bias`, and with a low-rank
@@ -103,9 +103,17 @@ struct Header {
 }
 
 /// Net options added after format version 1, with the value files that predate them meant.
-const OPTIONAL_NET_FIELDS: [(&str, bool); 1] = [("scale_free_material", false)];
+fn optional_net_fields() -> [(&'static str, serde_json::Value); 2] {
+    [
+        ("scale_free_material", serde_json::Value::Bool(false)),
+        (
+            "pose_encoding",
+            serde_json::Value::String("axis_angle".into()),
+        ),
+    ]
+}
 
-/// The model document with every [`OPTIONAL_NET_FIELDS`] entry a net config lacks filled in
+/// The model document with every [`optional_net_fields`] entry a net config lacks filled in
 /// (Burn's `Config` derive requires every field, so older files would not parse otherwise).
 fn with_optional_net_fields(mut document: serde_json::Value) -> serde_json::Value {
     for net in ["fitting", "local"] {
@@ -113,10 +121,8 @@ fn with_optional_net_fields(mut document: serde_json::Value) -> serde_json::Valu
             .get_mut(net)
             .and_then(serde_json::Value::as_object_mut)
         {
-            for (field, value) in OPTIONAL_NET_FIELDS {
-                config
-                    .entry(field)
-                    .or_insert(serde_json::Value::Bool(value));
+            for (field, value) in optional_net_fields() {
+                config.entry(field).or_insert(value);
             }
         }
     }
@@ -379,7 +385,8 @@ impl GarMatNetModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{cpu, random_inputs, small_model, to_vec};
+    use crate::PoseEncoding;
+    use crate::test_util::{TEST_VERTICES, cpu, random_inputs, small_model, to_vec};
 
     fn predictions(model: &GarMatNetModel, dev: &Device) -> (Vec<f32>, Vec<f32>) {
         let (p, m) = random_inputs(3, 11, dev);
@@ -397,6 +404,31 @@ mod tests {
             let mut model = small_model(3, rank, &dev);
             model.fitting.config.scale_free_material = rank.is_some();
             model.local.config.scale_free_material = rank.is_some();
+            if rank.is_some() {
+                // A rotation-matrix pose branch has a wider input layer.
+                let config = model
+                    .fitting
+                    .config()
+                    .clone()
+                    .with_pose_encoding(PoseEncoding::RotationMatrix)
+                    .with_output_rank(rank);
+                model.fitting = config.init(&dev);
+                model
+                    .fitting
+                    .set_output_basis(
+                        Tensor::random(
+                            [5, 3 * TEST_VERTICES],
+                            burn::tensor::Distribution::Default,
+                            &dev,
+                        ),
+                        Tensor::random(
+                            [3 * TEST_VERTICES],
+                            burn::tensor::Distribution::Default,
+                            &dev,
+                        ),
+                    )
+                    .unwrap();
+            }
             model.meta.provenance.command = "garmatnet train --seed 3".into();
             model
                 .meta
@@ -417,21 +449,29 @@ mod tests {
                     a.config().scale_free_material,
                     b.config().scale_free_material
                 );
+                assert_eq!(a.config().pose_encoding, b.config().pose_encoding);
             }
         }
     }
 
     #[test]
-    fn net_configs_written_before_scale_free_material_read_as_off() {
+    fn net_configs_written_before_the_optional_fields_read_as_the_papers_net() {
         let config = small_model(3, None, &cpu()).fitting.config().clone();
-        let mut net = serde_json::to_value(config.with_scale_free_material(true)).unwrap();
+        let mut net = serde_json::to_value(
+            config
+                .with_scale_free_material(true)
+                .with_pose_encoding(PoseEncoding::RotationMatrix),
+        )
+        .unwrap();
         net.as_object_mut().unwrap().remove("scale_free_material");
+        net.as_object_mut().unwrap().remove("pose_encoding");
         assert!(serde_json::from_value::<GarMatNetConfig>(net.clone()).is_err());
         let document = serde_json::json!({ "fitting": net.clone(), "local": net });
         let document = with_optional_net_fields(document);
         for name in ["fitting", "local"] {
             let back: GarMatNetConfig = serde_json::from_value(document[name].clone()).unwrap();
             assert!(!back.scale_free_material);
+            assert_eq!(back.pose_encoding, PoseEncoding::AxisAngle);
         }
     }
 

@@ -200,7 +200,7 @@ pub(crate) fn net_from_tensors(
     let out_width = c.output_rank.unwrap_or(c.output_dim());
     let pose_in = tensors.linear(
         &format!("{prefix}.pose_in"),
-        c.pose_dim,
+        c.pose_encoding.width(),
         c.pose_hidden,
         device,
     )?;
