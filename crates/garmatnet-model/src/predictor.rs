@@ -593,15 +593,38 @@ mod tests {
         );
     }
 
-    /// GPU (wgpu) predictions equal CPU predictions; CI runs it on lavapipe.
+    /// GPU (wgpu) predictions equal CPU predictions, for both pose encodings; CI runs it on
+    /// lavapipe.
     #[cfg(feature = "wgpu")]
     #[test]
     fn wgpu_predictions_match_cpu() {
+        for encoding in [
+            crate::PoseEncoding::AxisAngle,
+            crate::PoseEncoding::RotationMatrix,
+        ] {
+            wgpu_predictions_match_cpu_with(encoding);
+        }
+    }
+
+    #[cfg(feature = "wgpu")]
+    fn wgpu_predictions_match_cpu_with(encoding: crate::PoseEncoding) {
         let cpu_dev = cpu();
         let gpu = crate::select_device("gpu").unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.safetensors");
-        small_model(31, Some(4), &cpu_dev).save(&path).unwrap();
+        let mut model = small_model(31, Some(4), &cpu_dev);
+        if !encoding.is_axis_angle() {
+            // Full-width output heads: no basis to set.
+            model = small_model(31, None, &cpu_dev);
+            for net in [&mut model.fitting, &mut model.local] {
+                *net = net
+                    .config()
+                    .clone()
+                    .with_pose_encoding(encoding)
+                    .init(&cpu_dev);
+            }
+        }
+        model.save(&path).unwrap();
         let make = |dev: &Device| {
             let model = GarMatNetModel::load(&path, dev).unwrap();
             Predictor::new(
