@@ -110,7 +110,9 @@ fn rotation_minus_identity(pose: Tensor<2>) -> Tensor<2> {
 ///
 /// With `output_rank = Some(k)` the last layer outputs `k` coefficients that multiply a
 /// basis `[k, 3n]` (plus a mean `[3n]`) held as module parameters: set them from PCA of the
-/// training displacements with [`GarMatNet::set_output_basis`].
+/// training displacements with [`GarMatNet::set_output_basis`]. With
+/// [`PoseEncoding::RotationMatrix`] the pose branch reads the 216 numbers R(θⱼ) − I instead
+/// of θ's 72.
 #[derive(Config, Debug)]
 pub struct GarMatNetConfig {
     /// The number of garment vertices n; the output has 3n values.

@@ -4,7 +4,8 @@
 //! A standard safetensors file (loadable by `safetensors.numpy.load_file` or PyTorch):
 //! - tensors, for `net` in `fitting`, `local` (f32, Burn's `[in, out]` weight layout — the
 //!   transpose of `torch.nn.Linear.weight`):
-//!   `{net}.pose_in.weight [72 or 216, pose_hidden]` (the pose encoding's width), `{net}.pose_in.bias [pose_hidden]`,
+//!   `{net}.pose_in.weight [w, pose_hidden]` (w = 72, or 216 with the rotation-matrix pose
+//!   encoding), `{net}.pose_in.bias [pose_hidden]`,
 //!   `{net}.material_in.weight [6, material_hidden]`, `{net}.material_in.bias`,
 //!   `{net}.merge.weight [pose_hidden + material_hidden, hidden]`, `{net}.merge.bias`,
 //!   `{net}.output.weight [hidden, 3n or k]`, `{net}.output.bias`, and with a low-rank
