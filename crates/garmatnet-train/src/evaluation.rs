@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use burn::prelude::*;
-use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3};
+use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3, decompose};
 use garmatnet_model::{
     Detail, GarMatNetModel, OutputNormalizer, Predictor, push_out, select_device,
 };
@@ -314,7 +314,7 @@ fn fabric_lookup(
                     material: m,
                     pose: key.pose,
                 })?;
-                let errors = vertex_errors(&truth, &truth_as_prediction(&other));
+                let errors = vertex_errors(&truth, &truth_as_prediction(&other)?);
                 if m == nearest {
                     nearest_errors.push(errors.clone());
                 }
@@ -360,22 +360,17 @@ fn nearest_material(
         .map(|(m, _)| m)
 }
 
-/// Another sample's true drape, as the displacements a model would predict.
-fn truth_as_prediction(other: &crate::dataset_loader::SampleTruth) -> Prediction {
-    Prediction {
-        d_fitting: other
-            .smoothed
-            .iter()
-            .zip(&other.body_points)
-            .map(|(s, b)| s - b)
-            .collect(),
-        d_local: other
-            .simulated
-            .iter()
-            .zip(&other.smoothed)
-            .map(|(g, s)| g - s)
-            .collect(),
-    }
+/// Another sample's true drape, as the displacements a model would predict (core's
+/// decomposition of it).
+///
+/// # Errors
+/// As [`garmatnet_core::decompose`]: arrays of different lengths or non-finite values.
+fn truth_as_prediction(other: &crate::dataset_loader::SampleTruth) -> Result<Prediction> {
+    let parts = decompose(&other.simulated, &other.smoothed, &other.body_points)?;
+    Ok(Prediction {
+        d_fitting: parts.d_fitting,
+        d_local: parts.d_local,
+    })
 }
 
 fn frame_name(frame: DisplacementFrame) -> &'static str {
