@@ -168,7 +168,9 @@ impl std::str::FromStr for MotionPace {
 pub struct MotionGenerator {
     /// Seed: the same seed and settings always give bit-identical poses.
     pub seed: u64,
-    /// Number of frames to generate.
+    /// Number of frames to generate. The whole sequence depends on it (keyframes and their
+    /// timing are drawn for the full length), so the first 50 frames of a 200-frame
+    /// sequence are not the 50-frame sequence: generate the full length and truncate.
     pub frames: usize,
     /// Range of frames between keyframes before lengthening for `max_step_rad` (2–3 at the
     /// default [`MotionPace::Brisk`]).
