@@ -67,7 +67,7 @@ pub struct TrainOptions {
     /// How the nets read the pose: `axis-angle` (the paper's 72 numbers, default) or
     /// `rotation-matrix` (each joint's R − I, 216 numbers).
     #[arg(long)]
-    pub pose_encoding: Option<String>,
+    pub pose_encoding: Option<PoseEncoding>,
     /// The unseen target materials (default: the paper's four), comma-separated.
     #[arg(long, value_delimiter = ',')]
     pub test_materials: Option<Vec<String>>,
@@ -146,14 +146,8 @@ impl TrainOptions {
         if self.scale_free_material {
             c.scale_free_material = true;
         }
-        if let Some(e) = &self.pose_encoding {
-            c.pose_encoding = match e.to_ascii_lowercase().replace('_', "-").as_str() {
-                "axis-angle" => PoseEncoding::AxisAngle,
-                "rotation-matrix" => PoseEncoding::RotationMatrix,
-                other => {
-                    anyhow::bail!("--pose-encoding {other}: use axis-angle or rotation-matrix")
-                }
-            };
+        if let Some(e) = self.pose_encoding {
+            c.pose_encoding = e;
         }
         if let Some(f) = &self.frame {
             c.displacement_frame = match f.to_ascii_lowercase().as_str() {

@@ -31,6 +31,18 @@ pub enum PoseEncoding {
 }
 
 impl PoseEncoding {
+    /// Both encodings.
+    pub const ALL: [Self; 2] = [Self::AxisAngle, Self::RotationMatrix];
+
+    /// The command-line name: `axis-angle` or `rotation-matrix`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::AxisAngle => "axis-angle",
+            Self::RotationMatrix => "rotation-matrix",
+        }
+    }
+
     /// Whether this is the paper's axis-angle input (the default).
     #[must_use]
     pub fn is_axis_angle(&self) -> bool {
@@ -59,6 +71,33 @@ impl PoseEncoding {
     }
 }
 
+impl std::fmt::Display for PoseEncoding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for PoseEncoding {
+    type Err = Error;
+
+    /// `axis-angle` or `rotation-matrix` (case-insensitive; `_` for `-` accepted).
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] for anything else.
+    fn from_str(s: &str) -> Result<Self> {
+        let wanted = s.trim().replace('_', "-");
+        Self::ALL
+            .into_iter()
+            .find(|e| e.name().eq_ignore_ascii_case(&wanted))
+            .ok_or_else(|| {
+                Error::InvalidConfig(format!(
+                    "unknown pose encoding `{s}`: use `axis-angle` (the paper's, the default) \
+                     or `rotation-matrix`"
+                ))
+            })
+    }
+}
+
 /// R(θⱼ) − I for every joint by Rodrigues' formula, written so it stays accurate at small
 /// angles: R − I = (sin a / a) [x]ₓ + ((1 − cos a) / a²) (x xᵀ − a² I) with a = |x|, and
 /// 1 − cos a = 2 sin²(a / 2).
@@ -81,8 +120,11 @@ fn rotation_minus_identity(pose: Tensor<2>) -> Tensor<2> {
         .div(angle.powi_scalar(2));
     let c = |i: usize| x.clone().narrow(2, i, 1);
     let (x0, x1, x2) = (c(0), c(1), c(2));
-    let s = |v: Tensor<3>| sin_over.clone().mul(v);
+    // The skew part (sin a / a) xᵢ and the symmetric off-diagonal part, once each.
+    let s = |v: &Tensor<3>| sin_over.clone().mul(v.clone());
+    let (s0, s1, s2) = (s(&x0), s(&x1), s(&x2));
     let k = |a: &Tensor<3>, b: &Tensor<3>| one_minus_cos_over.clone().mul(a.clone().mul(b.clone()));
+    let (k01, k02, k12) = (k(&x0, &x1), k(&x0, &x2), k(&x1, &x2));
     let diagonal = |v: &Tensor<3>| {
         one_minus_cos_over
             .clone()
@@ -90,13 +132,13 @@ fn rotation_minus_identity(pose: Tensor<2>) -> Tensor<2> {
     };
     let entries = vec![
         diagonal(&x0),
-        k(&x0, &x1).sub(s(x2.clone())),
-        k(&x0, &x2).add(s(x1.clone())),
-        k(&x0, &x1).add(s(x2.clone())),
+        k01.clone().sub(s2.clone()),
+        k02.clone().add(s1.clone()),
+        k01.add(s2),
         diagonal(&x1),
-        k(&x1, &x2).sub(s(x0.clone())),
-        k(&x0, &x2).sub(s(x1.clone())),
-        k(&x1, &x2).add(s(x0.clone())),
+        k12.clone().sub(s0.clone()),
+        k02.sub(s1),
+        k12.add(s0),
         diagonal(&x2),
     ];
     Tensor::cat(entries, 2).reshape([batch, JOINT_COUNT * 9])
@@ -622,6 +664,19 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn pose_encodings_parse_from_their_names() {
+        for e in PoseEncoding::ALL {
+            assert_eq!(e.to_string().parse::<PoseEncoding>().unwrap(), e);
+        }
+        assert_eq!(
+            " Rotation_Matrix".parse::<PoseEncoding>().unwrap(),
+            PoseEncoding::RotationMatrix
+        );
+        let bad = "euler".parse::<PoseEncoding>().unwrap_err().to_string();
+        assert!(bad.contains("rotation-matrix"), "{bad}");
     }
 
     #[test]

@@ -387,7 +387,7 @@ impl GarMatNetModel {
 mod tests {
     use super::*;
     use crate::PoseEncoding;
-    use crate::test_util::{TEST_VERTICES, cpu, random_inputs, small_model, to_vec};
+    use crate::test_util::{cpu, random_inputs, small_model, to_vec};
 
     fn predictions(model: &GarMatNetModel, dev: &Device) -> (Vec<f32>, Vec<f32>) {
         let (p, m) = random_inputs(3, 11, dev);
@@ -406,29 +406,14 @@ mod tests {
             model.fitting.config.scale_free_material = rank.is_some();
             model.local.config.scale_free_material = rank.is_some();
             if rank.is_some() {
-                // A rotation-matrix pose branch has a wider input layer.
-                let config = model
+                // A rotation-matrix pose branch has a wider input layer (the low-rank head
+                // starts from init's placeholder basis).
+                model.fitting = model
                     .fitting
                     .config()
                     .clone()
                     .with_pose_encoding(PoseEncoding::RotationMatrix)
-                    .with_output_rank(rank);
-                model.fitting = config.init(&dev);
-                model
-                    .fitting
-                    .set_output_basis(
-                        Tensor::random(
-                            [5, 3 * TEST_VERTICES],
-                            burn::tensor::Distribution::Default,
-                            &dev,
-                        ),
-                        Tensor::random(
-                            [3 * TEST_VERTICES],
-                            burn::tensor::Distribution::Default,
-                            &dev,
-                        ),
-                    )
-                    .unwrap();
+                    .init(&dev);
             }
             model.meta.provenance.command = "garmatnet train --seed 3".into();
             model

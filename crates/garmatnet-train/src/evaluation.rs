@@ -287,13 +287,8 @@ fn fabric_lookup(
     };
     let omega = |m: usize| spec.materials[m].omega_normalized;
     let mut nearest_to = Vec::new();
-    let (mut nearest_errors, mut best_errors) = (Vec::new(), Vec::new());
+    let mut targets = Vec::new();
     for &target in &split.test_materials {
-        let keys: Vec<SampleKey> = comparison
-            .iter()
-            .copied()
-            .filter(|k| k.material == target)
-            .collect();
         let Some(nearest) =
             nearest_material(&omega(target), training.iter().map(|&m| (m, omega(m))))
         else {
@@ -303,19 +298,39 @@ fn fabric_lookup(
             spec.materials[target].name.clone(),
             spec.materials[nearest].name.clone(),
         ));
-        for key in keys {
+        targets.push((target, nearest));
+    }
+    let mut poses: Vec<usize> = comparison
+        .iter()
+        .filter(|k| split.test_materials.contains(&k.material))
+        .map(|k| k.pose)
+        .collect();
+    poses.sort_unstable();
+    poses.dedup();
+    let (mut nearest_errors, mut best_errors) = (Vec::new(), Vec::new());
+    for pose in poses {
+        // Every training fabric's drape at this pose, read and decomposed once for all targets.
+        let others = training
+            .iter()
+            .filter(|&&m| have(m, pose))
+            .map(|&m| {
+                let other = data.truth(SampleKey { material: m, pose })?;
+                Ok((m, truth_as_prediction(&other)?))
+            })
+            .collect::<Result<Vec<(usize, Prediction)>>>()?;
+        for &(target, nearest) in &targets {
+            let key = SampleKey {
+                material: target,
+                pose,
+            };
+            if !comparison.contains(&key) {
+                continue;
+            }
             let truth = data.truth(key)?;
             let mut best: Option<(f64, VertexErrors)> = None;
-            for &m in &training {
-                if !have(m, key.pose) {
-                    continue;
-                }
-                let other = data.truth(SampleKey {
-                    material: m,
-                    pose: key.pose,
-                })?;
-                let errors = vertex_errors(&truth, &truth_as_prediction(&other)?);
-                if m == nearest {
+            for (m, other) in &others {
+                let errors = vertex_errors(&truth, other);
+                if *m == nearest {
                     nearest_errors.push(errors.clone());
                 }
                 let whole: f64 = errors.whole.iter().sum();
