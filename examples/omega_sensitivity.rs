@@ -33,6 +33,9 @@ struct Args {
     /// Steps in the normalised ω cube, comma-separated (0 re-runs the fabric as given).
     #[arg(long, value_delimiter = ',', default_value = "0,0.005,0.02,0.06")]
     deltas: Vec<f64>,
+    /// Coulomb friction coefficient of the drapes (default: the datasets' setting).
+    #[arg(long)]
+    friction: Option<f64>,
 }
 
 /// Frames of the README datasets' motion.
@@ -55,7 +58,10 @@ fn main() -> Result<()> {
     let mut poses = MotionGenerator::with_pace(0, MOTION_FRAMES, MotionPace::Brisk).generate();
     poses.truncate(args.frames + 1);
     let measured: Vec<usize> = (args.frames.div_ceil(2)..=args.frames).collect();
-    let settings = SequenceSettings::default();
+    let mut settings = SequenceSettings::default();
+    if let Some(mu) = args.friction {
+        settings.drape.friction = mu;
+    }
     let norm = DIRECTION.iter().map(|d| d * d).sum::<f64>().sqrt();
     let drapes = |material: &Material| -> Result<Vec<Vec<Vec3>>> {
         let mut all = Vec::new();
@@ -74,8 +80,8 @@ fn main() -> Result<()> {
         Ok(measured.iter().map(|&f| all[f].clone()).collect())
     };
     println!(
-        "frames {}..={} of the brisk motion, walked in sequence",
-        measured[0], args.frames
+        "frames {}..={} of the brisk motion, walked in sequence; friction {}",
+        measured[0], args.frames, settings.drape.friction
     );
     for name in &args.materials {
         let material = Material::preset(name).with_context(|| format!("material {name}"))?;

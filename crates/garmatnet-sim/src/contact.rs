@@ -1,7 +1,8 @@
-//! Cloth-body contact helpers: an empty collider, Coulomb friction on a contact vertex, and
+//! Cloth-body contact helpers: an empty collider, smooth lagged Coulomb friction on a
+//! contact vertex, and
 //! the final projection out of the collider.
 
-use garmatnet_core::{Real, SignedDistance, Vec3};
+use garmatnet_core::{Mat3, Real, SignedDistance, Vec3};
 
 /// A collider that is nowhere: for cloth that only hangs from its pins.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -13,24 +14,74 @@ impl SignedDistance for EmptySpace {
     }
 }
 
-/// Coulomb friction on a contact vertex, given the net force `force` (newtons) of
-/// everything else on it, the contact's outward `normal` and the normal force magnitude
-/// `normal_force`. Returns the friction force and whether the vertex sticks: static friction
-/// cancels the tangential force while it stays within `friction * normal_force`; beyond that
-/// the vertex slides against exactly that much, opposing the tangential force.
-pub(crate) fn coulomb_friction(
-    force: &Vec3,
-    normal: &Vec3,
-    normal_force: Real,
-    friction: Real,
-) -> (Vec3, bool) {
-    let tangential = force - normal * force.dot(normal);
-    let magnitude = tangential.norm();
-    let limit = friction * normal_force;
-    if magnitude <= limit {
-        (-tangential, true)
-    } else {
-        (tangential * (-limit / magnitude), false)
+/// Smooth Coulomb friction on one contact vertex, lagged at the start of a Newton
+/// iteration (the incremental-potential-contact formulation of Li et al. 2020, for a quasi-
+/// static step): with the contact's outward unit `normal` and `weight = μ λ` (the friction
+/// coefficient times the normal force, newtons) held fixed, the vertex's tangential slip
+/// `u = (I - n nᵀ)(x - a)` from its anchor `a` (where it sat before the step, carried
+/// with the body) costs `D(u) = μ λ f0(|u|)`. `f0` is `|u|` beyond the slip length `ε`
+/// (sliding: a force of exactly `μ λ` against the slip) and a cubic blend below it (static
+/// friction as a spring of stiffness `2 μ λ / ε` at rest), so `D` is twice continuously
+/// differentiable away from `|u| = ε` and convex in `u`, and Newton can converge on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct FrictionContact {
+    /// Outward unit normal of the contact.
+    pub(crate) normal: Vec3,
+    /// Friction coefficient times normal force (newtons).
+    pub(crate) weight: Real,
+}
+
+impl FrictionContact {
+    /// The tangential slip of `offset = x - anchor`.
+    fn slip(&self, offset: &Vec3) -> Vec3 {
+        offset - self.normal * offset.dot(&self.normal)
+    }
+
+    /// `D` (joules) at `offset = x - anchor`, for slip length `epsilon` (metres).
+    pub(crate) fn potential(&self, offset: &Vec3, epsilon: Real) -> Real {
+        let y = self.slip(offset).norm();
+        self.weight
+            * if y < epsilon {
+                y * y / epsilon - y * y * y / (3.0 * epsilon * epsilon) + epsilon / 3.0
+            } else {
+                y
+            }
+    }
+
+    /// The friction force `-∇D` (newtons) at `offset = x - anchor`.
+    pub(crate) fn force(&self, offset: &Vec3, epsilon: Real) -> Vec3 {
+        let u = self.slip(offset);
+        let y = u.norm();
+        // f1(y) / y, with f1 = f0': bounded as y -> 0.
+        let scale = if y < epsilon {
+            2.0 / epsilon - y / (epsilon * epsilon)
+        } else {
+            1.0 / y
+        };
+        -u * (self.weight * scale)
+    }
+
+    /// The Hessian of `D` at `offset = x - anchor`: positive semi-definite everywhere (no
+    /// projection needed), zero along the normal.
+    pub(crate) fn hessian(&self, offset: &Vec3, epsilon: Real) -> Mat3 {
+        let tangent = Mat3::identity() - self.normal * self.normal.transpose();
+        let u = self.slip(offset);
+        let y = u.norm();
+        if y < epsilon {
+            // f1'(y) along the slip, f1(y)/y across it; both 2/ε at y = 0.
+            let across = 2.0 / epsilon - y / (epsilon * epsilon);
+            let along = 2.0 / epsilon - 2.0 * y / (epsilon * epsilon);
+            let uu = if y > 0.0 {
+                let d = u / y;
+                d * d.transpose()
+            } else {
+                Mat3::zeros()
+            };
+            (tangent * across + uu * (along - across)) * self.weight
+        } else {
+            let d = u / y;
+            (tangent - d * d.transpose()) * (self.weight / y)
+        }
     }
 }
 
@@ -67,16 +118,55 @@ mod tests {
     }
 
     #[test]
-    fn friction_sticks_inside_the_cone_and_slides_outside() {
-        let n = Vec3::y();
-        let f = Vec3::new(0.3, -1.0, 0.4);
-        let (fr, stick) = coulomb_friction(&f, &n, 2.0, 0.5);
-        assert!(stick);
-        assert_relative_eq!(fr, Vec3::new(-0.3, 0.0, -0.4), epsilon = 1e-12);
-        let (fr, stick) = coulomb_friction(&f, &n, 0.5, 0.5);
-        assert!(!stick);
-        assert_relative_eq!(fr.norm(), 0.25, epsilon = 1e-12);
-        assert_relative_eq!(fr.normalize(), Vec3::new(-0.6, 0.0, -0.8), epsilon = 1e-12);
+    fn friction_force_and_hessian_are_the_potentials_derivatives() {
+        let c = FrictionContact {
+            normal: Vec3::new(0.2, 0.9, -0.1).normalize(),
+            weight: 0.7,
+        };
+        let eps = 1e-3;
+        // Static (slip below eps), at the blend, and sliding.
+        for offset in [
+            Vec3::new(2e-4, -3e-4, 1e-4),
+            Vec3::new(6e-4, 5e-4, -4e-4),
+            Vec3::new(3e-3, 1e-3, -2e-3),
+        ] {
+            let h = 1e-8;
+            let f = c.force(&offset, eps);
+            let k = c.hessian(&offset, eps);
+            for axis in 0..3 {
+                let mut plus = offset;
+                let mut minus = offset;
+                plus[axis] += h;
+                minus[axis] -= h;
+                let dd = (c.potential(&plus, eps) - c.potential(&minus, eps)) / (2.0 * h);
+                assert_relative_eq!(-f[axis], dd, epsilon = 1e-6, max_relative = 1e-5);
+                let df = (c.force(&plus, eps) - c.force(&minus, eps)) / (2.0 * h);
+                for row in 0..3 {
+                    assert_relative_eq!(
+                        k[(row, axis)],
+                        -df[row],
+                        epsilon = 1e-3,
+                        max_relative = 1e-4
+                    );
+                }
+            }
+            // Nothing along the normal; never more than mu * lambda.
+            assert!(f.dot(&c.normal).abs() < 1e-12);
+            assert!(f.norm() <= c.weight * (1.0 + 1e-12));
+            assert!((k * c.normal).norm() < 1e-9);
+            assert!(k.symmetric_eigenvalues().iter().all(|e| *e >= -1e-9));
+        }
+        // Sliding: exactly mu * lambda against the slip.
+        let slide = Vec3::new(0.01, 0.0, 0.0);
+        let t = c.slip(&slide).normalize();
+        assert_relative_eq!(c.force(&slide, eps), -t * c.weight, epsilon = 1e-12);
+        // At rest: no force, a spring of 2 mu lambda / eps across the contact.
+        assert_eq!(c.force(&Vec3::zeros(), eps), Vec3::zeros());
+        assert_relative_eq!(
+            c.hessian(&Vec3::zeros(), eps).trace(),
+            2.0 * 2.0 * c.weight / eps,
+            max_relative = 1e-12
+        );
     }
 
     #[test]

@@ -35,11 +35,17 @@ pub struct DrapeSettings {
     /// Contact penalty stiffness (N/m) when the ratio gives less. The default 300 N/m holds
     /// the largest contact loads of a draped shirt (~0.02 N per vertex) within 0.1 mm.
     pub min_contact_stiffness: Real,
-    /// Coulomb friction coefficient between cloth and collider. Default 0 (frictionless):
-    /// the static drape is then a function of pose and material alone, which is what the
-    /// networks learn, and the lagged stick/slide friction model (kept for experiments)
-    /// stalls convergence at an RMS residual of ~0.05 on the T-shirt.
+    /// Coulomb friction coefficient between cloth and collider (dimensionless; 0 is
+    /// frictionless). Friction is smooth and lagged (see [`crate::drape_solver`]) and acts
+    /// on each contact vertex's slip from its anchor, so a shirt on a moving body stays
+    /// where it landed unless pulled harder than the Coulomb bound. Default 0.3. Without
+    /// friction, where a shirt rests on the body is an almost free direction, and drapes of
+    /// two fabrics 0.5 % apart in ω lay 10 mm apart on average (67 mm in the worst frame);
+    /// with 0.3, 3.1 mm (4.6 mm): the README's "The ground truth's noise floor".
     pub friction: Real,
+    /// Slip length of the friction (metres): below it static friction is a spring of
+    /// stiffness `2 μ λ / ε`; beyond it the vertex slides against `μ λ`.
+    pub friction_slip: Real,
     /// Largest move of any vertex in one Newton step (metres): the whole step is scaled
     /// down to it, so no vertex tunnels through a thin body part.
     pub max_step: Real,
@@ -57,7 +63,8 @@ impl Default for DrapeSettings {
             contact_margin: 0.003,
             contact_stiffness_ratio: 0.0,
             min_contact_stiffness: 300.0,
-            friction: 0.0,
+            friction: 0.3,
+            friction_slip: 1e-3,
             max_step: 0.02,
         }
     }

@@ -1,18 +1,27 @@
 //! The static-drape solver: Newton's method with pseudo-transient continuation on the
-//! drape energy (springs, gravity, penalty contact; see `drape_energy.rs`) plus lagged
-//! Coulomb friction.
+//! drape energy (springs, gravity, penalty contact; see `drape_energy.rs`) plus smooth,
+//! lagged Coulomb friction.
 //!
-//! Iteration `k` takes one damped Newton step on `Φ_k(x) = E(x) + |x - x_k|^2_M / (2h^2)`
-//! (+ the friction of the contacts at `x_k`): it solves `(M/h^2 + H) Δ = -∇Φ_k(x_k)` with
-//! `H` the PSD-projected spring Hessian plus `k_c n nᵀ` per contact (and `k_c (I - n nᵀ)`
-//! per sticking contact: static friction holds it tangentially for this step), then
-//! backtracks on `Φ_k` (Armijo). `h` grows as the residual falls (switched evolution
-//! relaxation) and shrinks after rejected steps, so a cold drape starts as gentle implicit
-//! dynamics and ends as plain Newton. The 3n x 3n pattern never changes (contacts only touch
-//! diagonal blocks), so the fill-reducing ordering and symbolic Cholesky are done once per
-//! topology.
-//! The residual is a force balance: springs + gravity + contact + the friction force the
-//! Coulomb cone allows, over the vertex's weight.
+//! Iteration `k` takes one damped Newton step on
+//! `Φ_k(x) = E(x) + D(x) + |x - x_k|^2_M / (2h^2)`: it solves `(M/h^2 + H) Δ = -∇Φ_k(x_k)`
+//! with `H` the PSD-projected spring Hessian, `k_c n nᵀ` per contact and the friction
+//! potential's Hessian, then backtracks on `Φ_k` (Armijo). `D` is the friction potential
+//! of Li et al. 2020's incremental potential contact, quasi-static: it charges each contact
+//! vertex for its tangential slip from its anchor, as a stiff spring within the slip length
+//! and as `μ λ` per metre beyond, with the contact's normal and normal force `λ` lagged.
+//! Friction acts on the vertices in contact at the start of the drape, with their normals
+//! and normal forces `λ` lagged there and held, so Newton minimises one smooth potential
+//! (incremental potential contact lags once per time step the same way). Cloth that lands
+//! during a drape slides freely until the next one, which is one reason a moving body is
+//! draped in small steps ([`crate::drape_sequence`]). The anchors are where the caller
+//! says: where each vertex would be had it moved with the body since it settled.
+//! Measured and rejected on the T-shirt: giving friction to cloth as it lands (anchored
+//! there) made a fabric's drapes twice as sensitive to a small change of the fabric, and
+//! re-lagging at the equilibrium reached and going on (IPC's outer iterations) pushed two
+//! of four poses past the 300-iteration cap. `λ` is the load the body carries (springs and
+//! gravity pressing in), which the stiff penalty's force equals only at equilibrium.
+//! The residual is a force balance: springs + gravity + contact + friction, over the
+//! vertex's weight.
 
 use std::time::Instant;
 
@@ -21,7 +30,7 @@ use garmatnet_core::{Error as CoreError, Mat3, Real, SignedDistance, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::cloth_model::ClothModel;
-use crate::contact::{coulomb_friction, push_out};
+use crate::contact::{FrictionContact, push_out};
 use crate::drape_energy::{Contact, DrapeEnergy};
 use crate::drape_settings::DrapeSettings;
 use crate::error::{Error, Result};
@@ -174,33 +183,66 @@ impl DrapeSolver {
     /// Drapes the cloth from `positions` (metres; the warm start, e.g. the previous pose's
     /// result) to static equilibrium under gravity against `collider`, holding the
     /// `pinned` vertices at their given positions. Writes the result into `positions`.
+    /// Friction (when [`DrapeSettings::friction`] is positive) resists slip from where each
+    /// vertex starts: the collider is taken to be at rest. For a collider that moved since
+    /// `positions` settled, use [`DrapeSolver::drape_with_anchors`].
     ///
     /// # Errors
-    /// - [`CoreError::WrongLength`] if `positions` does not have one entry per vertex;
-    /// - [`CoreError::NonFinite`] for NaN or infinite positions;
-    /// - [`CoreError::OutOfRange`] for a pinned index past the vertices;
-    /// - [`Error::Factorization`] if the Newton matrix is not positive definite;
-    /// - [`Error::Diverged`] if an iterate became non-finite (`positions` is then left at
-    ///   the last finite iterate).
+    /// As [`DrapeSolver::drape_with_anchors`].
     pub fn drape(
         &mut self,
         positions: &mut [Vec3],
         collider: &impl SignedDistance,
         pinned: &[usize],
     ) -> Result<DrapeStats> {
+        let anchors = positions.to_vec();
+        self.drape_with_anchors(positions, &anchors, collider, pinned)
+    }
+
+    /// As [`DrapeSolver::drape`], with friction measured from `anchors` (metres, one per
+    /// vertex): where each vertex would be had it moved with the collider since it last
+    /// settled (for a posed body, the previous result carried by
+    /// [`garmatnet_core::PosedBody::carry_to`]). A vertex in contact then sticks to the
+    /// body within [`DrapeSettings::friction_slip`] and slides only when the tangential
+    /// load passes the Coulomb bound. Anchors of vertices out of contact are not used.
+    ///
+    /// # Errors
+    /// - [`CoreError::WrongLength`] if `positions` or `anchors` does not have one entry per
+    ///   vertex;
+    /// - [`CoreError::NonFinite`] for NaN or infinite positions or anchors;
+    /// - [`CoreError::OutOfRange`] for a pinned index past the vertices;
+    /// - [`Error::Factorization`] if the Newton matrix is not positive definite;
+    /// - [`Error::Diverged`] if an iterate became non-finite (`positions` is then left at
+    ///   the last finite iterate).
+    pub fn drape_with_anchors(
+        &mut self,
+        positions: &mut [Vec3],
+        anchors: &[Vec3],
+        collider: &impl SignedDistance,
+        pinned: &[usize],
+    ) -> Result<DrapeStats> {
         let start = Instant::now();
         let n = self.model.vertex_count();
-        if positions.len() != n {
-            return Err(CoreError::WrongLength {
-                what: "cloth positions".into(),
-                expected: n.to_string(),
-                got: positions.len(),
+        for (what, len) in [
+            ("cloth positions", positions.len()),
+            ("friction anchors", anchors.len()),
+        ] {
+            if len != n {
+                return Err(CoreError::WrongLength {
+                    what: what.into(),
+                    expected: n.to_string(),
+                    got: len,
+                }
+                .into());
             }
-            .into());
         }
         ensure_finite(
             "cloth positions (metres)",
             positions.iter().flat_map(|v| [v.x, v.y, v.z]),
+        )?;
+        ensure_finite(
+            "friction anchors (metres)",
+            anchors.iter().flat_map(|v| [v.x, v.y, v.z]),
         )?;
         let mut is_pinned = vec![false; n];
         for &p in pinned {
@@ -226,14 +268,12 @@ impl DrapeSolver {
             contact_stiffness: &self.contact_stiffness,
             is_pinned: &is_pinned,
         };
+        let mut friction = Friction::new(s.friction, s.friction_slip, anchors);
         let free_count = is_pinned.iter().filter(|p| !**p).count().max(1);
 
         let mut contacts: Vec<Option<Contact>> = vec![None; n];
-        let mut gradient = vec![Vec3::zeros(); n];
-        // The gradient of Φ_k at x_k: gradient plus the lagged sliding friction.
-        let mut step_gradient = vec![Vec3::zeros(); n];
-        let mut sticking = vec![false; n];
-        let mut slide_force = vec![Vec3::zeros(); n];
+        let mut conservative = vec![Vec3::zeros(); n];
+        let mut gradient = conservative.clone();
         let mut diagonal = vec![Mat3::zeros(); n];
         let mut coupling = vec![Mat3::zeros(); model.springs().len()];
         let mut rhs = vec![0.0; 3 * n];
@@ -244,37 +284,20 @@ impl DrapeSolver {
         let mut iterations = 0;
         let mut rejected_steps = 0;
         let (residual, max_residual, contact_force, converged) = loop {
-            energy.gradient(positions, collider, &mut contacts, &mut gradient);
-            // Friction at x_k and the force-balance residual.
-            let mut sum = 0.0;
-            let mut max: Real = 0.0;
-            let mut contact_force = Vec3::zeros();
-            for i in 0..n {
-                sticking[i] = false;
-                slide_force[i] = Vec3::zeros();
-                if is_pinned[i] {
-                    continue;
-                }
-                let mut net = -gradient[i];
-                if let Some(c) = &contacts[i] {
-                    let normal_force = energy.normal_force(i, c);
-                    let (friction, sticks) =
-                        coulomb_friction(&net, &c.normal, normal_force, s.friction);
-                    net += friction;
-                    sticking[i] = sticks;
-                    if !sticks {
-                        slide_force[i] = friction;
-                    }
-                    contact_force += c.normal * normal_force + friction;
-                }
-                step_gradient[i] = gradient[i] - slide_force[i];
-                let e = net.norm() / (masses[i] * s.gravity);
-                sum += e * e;
-                max = max.max(e);
+            // The gradient of Φ_k at x_k (conservative forces plus friction) and the
+            // force-balance residual.
+            energy.gradient(positions, collider, &mut contacts, &mut conservative);
+            if iterations == 0 {
+                friction.lag(&energy, &contacts, &conservative);
             }
-            let rms = (sum / free_count as Real).sqrt();
+            gradient.copy_from_slice(&conservative);
+            let balance = friction.add_to_gradient(positions, &mut gradient);
+            let (rms, max) = force_residual(&gradient, masses, &is_pinned, s.gravity, free_count);
             let done = rms <= s.residual_tolerance && max <= s.max_residual_tolerance;
             if done || iterations >= s.max_iterations {
+                let contact_force = (0..n)
+                    .filter_map(|i| contacts[i].map(|c| c.normal * energy.normal_force(i, &c)))
+                    .fold(balance, |sum, f| sum + f);
                 break (rms, max, contact_force, done);
             }
             for i in 0..n {
@@ -285,16 +308,11 @@ impl DrapeSolver {
                 };
             }
             energy.add_hessian(positions, &contacts, &mut diagonal, &mut coupling);
-            for i in 0..n {
-                if let (true, Some(c)) = (sticking[i], &contacts[i]) {
-                    let nn = c.normal * c.normal.transpose();
-                    diagonal[i] += (Mat3::identity() - nn) * self.contact_stiffness[i];
-                }
-            }
+            friction.add_hessian(positions, &mut diagonal);
             self.system.factorize(&diagonal, &coupling)?;
             iterations += 1;
             for i in 0..n {
-                let g = -step_gradient[i];
+                let g = -gradient[i];
                 rhs[3 * i] = g.x;
                 rhs[3 * i + 1] = g.y;
                 rhs[3 * i + 2] = g.z;
@@ -316,7 +334,7 @@ impl DrapeSolver {
             let step: Vec<Vec3> = (0..n)
                 .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]) * scale)
                 .collect();
-            let slope: Real = (0..n).map(|i| step_gradient[i].dot(&step[i])).sum();
+            let slope: Real = (0..n).map(|i| gradient[i].dot(&step[i])).sum();
             // Backtracking on Φ_k: E change + lagged friction + proximal (inertia) term.
             let mut alpha = 1.0;
             let mut accepted = false;
@@ -324,14 +342,11 @@ impl DrapeSolver {
                 for i in 0..n {
                     trial[i] = positions[i] + step[i] * alpha;
                 }
-                let mut change = energy.change(positions, &trial, &contacts, collider);
+                let mut change = energy.change(positions, &trial, &contacts, collider)
+                    + friction.change(positions, &trial);
                 for i in 0..n {
                     let d = step[i] * alpha;
-                    change += 0.5 * masses[i] / (h * h) * d.norm_squared() - slide_force[i].dot(&d);
-                    if let (true, Some(c)) = (sticking[i], &contacts[i]) {
-                        let t = d - c.normal * d.dot(&c.normal);
-                        change += 0.5 * self.contact_stiffness[i] * t.norm_squared();
-                    }
+                    change += 0.5 * masses[i] / (h * h) * d.norm_squared();
                 }
                 if change <= ARMIJO * alpha * slope {
                     accepted = true;
@@ -339,7 +354,7 @@ impl DrapeSolver {
                 }
                 alpha *= 0.5;
             }
-            if !accepted && s.friction == 0.0 && rms <= NEAR_EQUILIBRIUM * s.residual_tolerance {
+            if !accepted && rms <= NEAR_EQUILIBRIUM * s.residual_tolerance {
                 // Near equilibrium a Newton step changes the energy by ~1e-10 J, where the
                 // energy test loses its resolution (and a contact crossing the margin bends
                 // it), and Armijo can fail at every length: without this the pseudo time step
@@ -349,7 +364,9 @@ impl DrapeSolver {
                     trial[i] = positions[i] + step[i];
                 }
                 energy.gradient(&trial, collider, &mut trial_contacts, &mut trial_gradient);
-                let trial_rms = force_rms(&trial_gradient, masses, &is_pinned, s.gravity);
+                friction.add_to_gradient(&trial, &mut trial_gradient);
+                let (trial_rms, _) =
+                    force_residual(&trial_gradient, masses, &is_pinned, s.gravity, free_count);
                 if trial_rms < rms {
                     accepted = true;
                     alpha = 1.0;
@@ -405,23 +422,114 @@ impl DrapeSolver {
     }
 }
 
-/// RMS over free vertices of `|f_i| / (m_i g)` for the conservative forces `-gradient` (the
-/// frictionless residual).
-fn force_rms(gradient: &[Vec3], masses: &[Real], is_pinned: &[bool], gravity: Real) -> Real {
-    let (sum, count) = gradient
+/// The RMS and the largest `|f_i| / (m_i g)` over free vertices, for net forces
+/// `f = -gradient` (gradient zero on pinned vertices).
+fn force_residual(
+    gradient: &[Vec3],
+    masses: &[Real],
+    is_pinned: &[bool],
+    gravity: Real,
+    free_count: usize,
+) -> (Real, Real) {
+    let (sum, max) = gradient
         .iter()
         .zip(masses)
         .zip(is_pinned)
         .filter(|(_, pinned)| !**pinned)
-        .fold((0.0, 0usize), |(sum, count), ((g, m), _)| {
+        .fold((0.0, 0.0 as Real), |(sum, max), ((g, m), _)| {
             let e = g.norm() / (m * gravity);
-            (sum + e * e, count + 1)
+            (sum + e * e, max.max(e))
         });
-    (sum / count.max(1) as Real).sqrt()
+    ((sum / free_count as Real).sqrt(), max)
+}
+
+/// The friction of one drape: the starting contacts' lagged normals and `μ λ`, and the
+/// anchors.
+struct Friction<'a> {
+    coefficient: Real,
+    slip: Real,
+    anchors: &'a [Vec3],
+    lagged: Vec<Option<FrictionContact>>,
+}
+
+impl<'a> Friction<'a> {
+    /// Friction measured from `anchors`, with no contact lagged yet.
+    fn new(coefficient: Real, slip: Real, anchors: &'a [Vec3]) -> Self {
+        Self {
+            coefficient,
+            slip,
+            anchors,
+            lagged: vec![None; anchors.len()],
+        }
+    }
+
+    /// Gives friction to every contact of the starting positions (`contacts` are their
+    /// contacts, `conservative` their energy gradient), lagging its normal and `μ λ` there
+    /// for the whole drape.
+    ///
+    /// The normal force `λ` is the load the body carries, `n · ∇(E - penalty)` (springs and
+    /// gravity pressing the vertex in), not the penalty's own force: the two agree at
+    /// equilibrium, but a warm start carried with the body sits a fraction of a millimetre
+    /// off it, where the stiff penalty's force is hundreds of times the vertex's weight and
+    /// friction lagged at it glues the shirt in place.
+    fn lag(
+        &mut self,
+        energy: &DrapeEnergy<'_>,
+        contacts: &[Option<Contact>],
+        conservative: &[Vec3],
+    ) {
+        if self.coefficient == 0.0 {
+            return;
+        }
+        for (i, (c, l)) in contacts.iter().zip(self.lagged.iter_mut()).enumerate() {
+            *l = c.map(|c| {
+                let load = conservative[i].dot(&c.normal) + energy.normal_force(i, &c);
+                FrictionContact {
+                    normal: c.normal,
+                    weight: self.coefficient * load.max(0.0),
+                }
+            });
+        }
+    }
+
+    /// Adds `∇D` at `x` to `gradient`; returns the total friction force on the cloth.
+    fn add_to_gradient(&self, x: &[Vec3], gradient: &mut [Vec3]) -> Vec3 {
+        let mut total = Vec3::zeros();
+        for (i, l) in self.lagged.iter().enumerate() {
+            if let Some(l) = l {
+                let f = l.force(&(x[i] - self.anchors[i]), self.slip);
+                gradient[i] -= f;
+                total += f;
+            }
+        }
+        total
+    }
+
+    fn add_hessian(&self, x: &[Vec3], diagonal: &mut [Mat3]) {
+        for (i, l) in self.lagged.iter().enumerate() {
+            if let Some(l) = l {
+                diagonal[i] += l.hessian(&(x[i] - self.anchors[i]), self.slip);
+            }
+        }
+    }
+
+    /// `D(x1) - D(x0)` (joules).
+    fn change(&self, x0: &[Vec3], x1: &[Vec3]) -> Real {
+        self.lagged
+            .iter()
+            .enumerate()
+            .filter_map(|(i, l)| {
+                l.map(|l| {
+                    l.potential(&(x1[i] - self.anchors[i]), self.slip)
+                        - l.potential(&(x0[i] - self.anchors[i]), self.slip)
+                })
+            })
+            .sum()
+    }
 }
 
 fn validate_settings(s: &DrapeSettings) -> Result<()> {
-    let checks: [(&str, Real, Real, Real); 10] = [
+    let checks: [(&str, Real, Real, Real); 11] = [
         ("time step (seconds)", s.time_step, 1e-6, 1e3),
         ("max time step (seconds)", s.max_time_step, s.time_step, 1e3),
         ("residual tolerance", s.residual_tolerance, 0.0, Real::MAX),
@@ -446,6 +554,7 @@ fn validate_settings(s: &DrapeSettings) -> Result<()> {
             1e12,
         ),
         ("friction coefficient", s.friction, 0.0, 10.0),
+        ("friction slip length (metres)", s.friction_slip, 1e-7, 0.1),
         ("max step (metres)", s.max_step, 1e-9, 10.0),
     ];
     for (what, value, min, max) in checks {

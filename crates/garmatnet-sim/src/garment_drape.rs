@@ -64,6 +64,12 @@ pub struct SequenceSettings {
     pub max_step_rad: Real,
     /// Newton iterations on each intermediate pose (the cloth need only follow the body).
     pub intermediate_iterations: usize,
+    /// Whether each step starts from the previous result carried with the body
+    /// ([`garmatnet_core::PosedBody::carry_to`]) and measures friction from there, as cloth
+    /// resting on moving skin does. Default true. With false each step starts where the
+    /// cloth was and friction treats the body as still (how datasets were walked before
+    /// friction: `false` with zero friction reproduces them bit for bit).
+    pub follow_body: bool,
 }
 
 impl Default for SequenceSettings {
@@ -72,6 +78,7 @@ impl Default for SequenceSettings {
             drape: DrapeSettings::default(),
             max_step_rad: 0.014,
             intermediate_iterations: 4,
+            follow_body: true,
         }
     }
 }
@@ -94,8 +101,9 @@ pub struct SequenceResume {
 ///
 /// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
 /// to each pose through intermediate poses ([`interpolation_steps`] at
-/// `settings.max_step_rad`), warm-starting every step from the previous result with
-/// `settings.intermediate_iterations` Newton iterations, and converges fully at each pose.
+/// `settings.max_step_rad`), warm-starting every step from the previous result (carried with
+/// the body when `settings.follow_body`) with `settings.intermediate_iterations` Newton
+/// iterations, and converges fully at each pose.
 /// Calls `on_sample(pose_index, positions, stats)` with the settled garment (metres) at
 /// every pose. Returns the stats of the rest drape followed by one per pose.
 ///
@@ -146,6 +154,22 @@ pub fn drape_sequence(
             (r.positions, poses[r.next - 1].clone(), r.next)
         }
     };
+    let mut posed = body.pose(&current);
+    let mut anchors = positions.clone();
+    // One step to `pose`: carry the cloth with the body (when following it), then drape.
+    let mut step = |solver: &mut DrapeSolver, positions: &mut Vec<Vec3>, pose: &Pose| {
+        let next = body.pose(pose);
+        if settings.follow_body {
+            for (a, p) in anchors.iter_mut().zip(positions.iter_mut()) {
+                *a = posed.carry_to(&next, p);
+                *p = *a;
+            }
+        } else {
+            anchors.copy_from_slice(positions);
+        }
+        posed = next;
+        solver.drape_with_anchors(positions, &anchors, &posed, &[])
+    };
     for (index, target) in poses.iter().enumerate().skip(first) {
         let steps = interpolation_steps(&current, target, settings.max_step_rad)?;
         let (last, between) = steps
@@ -154,11 +178,11 @@ pub fn drape_sequence(
         if !between.is_empty() {
             solver.set_settings(&quick)?;
             for pose in between {
-                solver.drape(&mut positions, &body.pose(pose), &[])?;
+                step(&mut solver, &mut positions, pose)?;
             }
             solver.set_settings(&full)?;
         }
-        let stats = solver.drape(&mut positions, &body.pose(last), &[])?;
+        let stats = step(&mut solver, &mut positions, last)?;
         for p in &mut positions {
             *p = p.map(|c| f64::from(c as f32));
         }

@@ -2,7 +2,8 @@
 //!
 //! [`ClothModel`] holds Provot's mass-spring cloth; [`DrapeSolver`] drapes it to static
 //! equilibrium on any [`garmatnet_core::SignedDistance`] collider by Newton's method with
-//! pseudo-transient continuation, penalty contact and Coulomb friction.
+//! pseudo-transient continuation, penalty contact and smooth Coulomb friction measured
+//! relative to the moving body.
 
 pub mod cloth_model;
 pub mod contact;

@@ -30,6 +30,7 @@ fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
             },
             max_step_rad: 0.1,
             intermediate_iterations: 2,
+            ..SequenceSettings::default()
         },
         smoothing: SmoothingSettings::default(),
         threads,

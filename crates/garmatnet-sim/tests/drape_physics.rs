@@ -1,7 +1,7 @@
 //! Physics sanity of the static-drape solver on sheets: symmetry, sag trends, force balance
 //! on a sphere, stability over the material range, determinism and input errors.
 
-use garmatnet_core::{Error as CoreError, Real, Sphere, Vec3};
+use garmatnet_core::{Error as CoreError, Real, Sphere, UnitQuat, Vec3};
 use garmatnet_sim::{
     ClothModel, DrapeSettings, DrapeSolver, DrapeStats, EmptySpace, Error, SheetStiffness,
     grid_sheet,
@@ -15,6 +15,8 @@ const MID: SheetStiffness = SheetStiffness {
     flexion_weft: 2.0,
 };
 const DENSITY: Real = 0.15;
+/// The middle vertex of the 15 x 15 sheet on the sphere.
+const CENTRE: usize = 15 * 15 / 2;
 
 /// A sheet hanging in the x-y plane, pinned at its two top corners.
 fn hanging(
@@ -122,15 +124,15 @@ fn extreme_materials_stay_finite_and_bounded() {
         (DENSITY * 10.0, 1.0),
     ] {
         let (model, mut x, sphere) = sheet_on_sphere(15, density, MID.scaled(k));
-        // Friction holds the sheet on the sphere: frictionless, a stiff flat sheet balanced on
-        // a sphere is an unstable equilibrium and rightly slides off.
+        // The centre is pinned: a stiff flat sheet balanced on a sphere is an unstable
+        // equilibrium and rightly slides off (friction would hold it only from where it
+        // first touched, and a drape gives friction to the contacts it starts with).
         let settings = DrapeSettings {
             max_iterations: 400,
-            friction: 0.3,
             ..DrapeSettings::default()
         };
         let mut solver = DrapeSolver::new(&model, &settings).unwrap();
-        let stats = solver.drape(&mut x, &sphere, &[]).unwrap();
+        let stats = solver.drape(&mut x, &sphere, &[CENTRE]).unwrap();
         assert!(
             x.iter().all(|p| p.iter().all(|v| v.is_finite())),
             "density {density}, k x{k}"
@@ -225,17 +227,16 @@ fn bad_drape_inputs_are_typed_errors() {
 fn scaling_every_stiffness_and_the_density_together_leaves_the_drape_in_place() {
     // Springs, gravity and the Coulomb cone all scale by c, so the equilibrium is the same;
     // only the fixed contact penalty sees c. This is why GarMatNet's `scale_free_material`
-    // option may ignore that direction of ω. Friction holds the sheet on the sphere (see
+    // option may ignore that direction of ω. The centre is pinned (see
     // `extreme_materials_stay_finite_and_bounded`).
     let settings = DrapeSettings {
         max_iterations: 400,
-        friction: 0.3,
         ..DrapeSettings::default()
     };
     let drape = |c: Real, stiffness: SheetStiffness| {
         let (model, mut x, sphere) = sheet_on_sphere(15, DENSITY * c, stiffness);
         let mut solver = DrapeSolver::new(&model, &settings).unwrap();
-        let stats = solver.drape(&mut x, &sphere, &[]).unwrap();
+        let stats = solver.drape(&mut x, &sphere, &[CENTRE]).unwrap();
         assert!(stats.max_penetration <= 1e-3, "c = {c}: {stats:?}");
         x
     };
@@ -250,8 +251,119 @@ fn scaling_every_stiffness_and_the_density_together_leaves_the_drape_in_place() 
         let g = gap(&drape(c, MID.scaled(c)), &base);
         assert!(g < 1e-3, "c = {c}: a vertex moved {g} m");
     }
-    // While a change of stiffness alone moves it by far more (measured: 0.6-0.7 mm above,
-    // 18 mm here).
+    // While a change of stiffness alone moves it by far more (measured: 0.005-0.01 mm
+    // above, 17 mm here).
     let g = gap(&drape(1.0, MID.scaled(2.0)), &base);
     assert!(g > 5e-3, "stiffness alone moved the sheet only {g} m");
+}
+
+/// A small sheet laid on a big sphere (nearly a plane) at `tilt` radians from its top,
+/// 1.5 mm out, so every vertex starts within the contact margin; drapes it with friction
+/// coefficient `friction` and returns how far its centre moved (metres) and the stats.
+fn slide_on_tilted_sphere(tilt: Real, friction: Real) -> (Real, DrapeStats) {
+    let columns = 7;
+    let model = grid_sheet(columns, columns, 0.02, DENSITY, MID).unwrap();
+    let radius = 5.0;
+    let sphere = Sphere {
+        centre: Vec3::zeros(),
+        radius,
+    };
+    let rotation = UnitQuat::from_axis_angle(&Vec3::z_axis(), -tilt);
+    let mut x: Vec<Vec3> = model
+        .rest_positions()
+        .iter()
+        .map(|p| rotation * (p + Vec3::new(0.0, radius + 0.0015, 0.0)))
+        .collect();
+    let centre = columns * columns / 2;
+    let start = x[centre];
+    let settings = DrapeSettings {
+        friction,
+        ..DrapeSettings::default()
+    };
+    let mut solver = DrapeSolver::new(&model, &settings).unwrap();
+    let stats = solver.drape(&mut x, &sphere, &[]).unwrap();
+    ((x[centre] - start).norm(), stats)
+}
+
+#[test]
+fn friction_holds_cloth_on_a_slope_below_its_angle_and_lets_it_slide_above() {
+    // On a slope of 20 degrees (tan = 0.36) Coulomb friction holds cloth when mu > 0.36.
+    let tilt = (20.0 as Real).to_radians();
+    let (held, stats) = slide_on_tilted_sphere(tilt, 0.6);
+    assert!(stats.converged, "{stats:?}");
+    assert!(held < 2e-3, "the sheet crept {held} m with mu = 0.6");
+    // At equilibrium the body carries the weight: normal force plus friction.
+    let weight = 0.02 * 0.02 * 36.0 * DENSITY * 9.81;
+    assert!(
+        (stats.contact_force.y - weight).abs() < 0.02 * weight,
+        "{:?} vs {weight}",
+        stats.contact_force
+    );
+    for slippery in [0.0, 0.1] {
+        let (slid, stats) = slide_on_tilted_sphere(tilt, slippery);
+        assert!(
+            slid > 0.05,
+            "mu = {slippery}: slid only {slid} m ({stats:?})"
+        );
+    }
+}
+
+#[test]
+fn friction_anchors_carry_cloth_with_a_moving_body() {
+    // A sheet at rest on a sphere, with friction; then the sphere moves 4 mm sideways.
+    let (model, mut x, sphere) = sheet_on_sphere(11, DENSITY, MID);
+    let settings = DrapeSettings {
+        friction: 0.6,
+        ..DrapeSettings::default()
+    };
+    let mut solver = DrapeSolver::new(&model, &settings).unwrap();
+    assert!(solver.drape(&mut x, &sphere, &[]).unwrap().converged);
+    let shift = Vec3::new(0.004, 0.0, 0.0);
+    let moved = Sphere {
+        centre: sphere.centre + shift,
+        ..sphere
+    };
+    // Anchored to the moving body, the sheet rides along: the same drape, shifted.
+    let carried: Vec<Vec3> = x.iter().map(|p| p + shift).collect();
+    let mut riding = carried.clone();
+    let stats = solver
+        .drape_with_anchors(&mut riding, &carried, &moved, &[])
+        .unwrap();
+    assert!(stats.converged, "{stats:?}");
+    let off = riding
+        .iter()
+        .zip(&carried)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, Real::max);
+    assert!(
+        off < 1e-4,
+        "the riding sheet moved {off} m off the body's motion"
+    );
+    // Anchored where it was (a body taken to be still), friction holds the contact
+    // vertices back against the body's motion, and the drape is a different one.
+    let mut held = carried.clone();
+    solver
+        .drape_with_anchors(&mut held, &x, &moved, &[])
+        .unwrap();
+    let apart = held
+        .iter()
+        .zip(&riding)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, Real::max);
+    assert!(apart > 1e-3, "anchors made no difference ({apart} m)");
+    // Wrong-sized or non-finite anchors are typed errors.
+    assert!(matches!(
+        solver
+            .drape_with_anchors(&mut held, &x[..5], &moved, &[])
+            .unwrap_err(),
+        Error::Core(CoreError::WrongLength { .. })
+    ));
+    let mut bad = x.clone();
+    bad[2].z = Real::INFINITY;
+    assert!(matches!(
+        solver
+            .drape_with_anchors(&mut held, &bad, &moved, &[])
+            .unwrap_err(),
+        Error::Core(CoreError::NonFinite { .. })
+    ));
 }

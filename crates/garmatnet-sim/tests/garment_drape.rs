@@ -48,6 +48,7 @@ fn quick() -> SequenceSettings {
         },
         max_step_rad: 0.1,
         intermediate_iterations: 2,
+        ..SequenceSettings::default()
     }
 }
 
