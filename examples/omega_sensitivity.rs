@@ -54,7 +54,8 @@ fn main() -> Result<()> {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(Resolution::Default, &body)?;
     // The sequence depends on its length, so generate the datasets' 200 frames and walk the
-    // first ones: the drapes as given are then the datasets' samples.
+    // first ones: the drapes as given are then the samples of a dataset made with the same
+    // solver settings.
     let mut poses = MotionGenerator::with_pace(0, MOTION_FRAMES, MotionPace::Brisk).generate();
     poses.truncate(args.frames + 1);
     let measured: Vec<usize> = (args.frames.div_ceil(2)..=args.frames).collect();
