@@ -8,18 +8,18 @@
 //! potential's Hessian, then backtracks on `Φ_k` (Armijo). `D` is the friction potential
 //! of Li et al. 2020's incremental potential contact, quasi-static: it charges each contact
 //! vertex for its tangential slip from its anchor, as a stiff spring within the slip length
-//! and as `μ λ` per metre beyond, with the contact's normal and normal force `λ` lagged.
-//! Friction acts on the vertices in contact at the start of the drape, with their normals
-//! and normal forces `λ` lagged there and held, so Newton minimises one smooth potential
-//! (incremental potential contact lags once per time step the same way). Cloth that lands
-//! during a drape slides freely until the next one, which is one reason a moving body is
-//! draped in small steps ([`crate::drape_sequence`]). The anchors are where the caller
-//! says: where each vertex would be had it moved with the body since it settled.
+//! and as `μ λ` per metre beyond. It acts on the vertices in contact at the start of the
+//! drape, with their normals and normal forces `λ` lagged there and held, so Newton
+//! minimises one smooth potential (incremental potential contact lags once per time step
+//! the same way). Cloth that lands during a drape slides freely until the next one, which
+//! is one reason a moving body is draped in small steps ([`crate::drape_sequence`]). The
+//! anchors are where the caller says: where each vertex would be had it moved with the body
+//! since it settled. `λ` is the load the body carries (springs and gravity pressing in),
+//! which the stiff penalty's force equals only at equilibrium.
 //! Measured and rejected on the T-shirt: giving friction to cloth as it lands (anchored
-//! there) made a fabric's drapes twice as sensitive to a small change of the fabric, and
+//! there) put the drapes of two nearly equal fabrics 1.6 times as far apart, and
 //! re-lagging at the equilibrium reached and going on (IPC's outer iterations) pushed two
-//! of four poses past the 300-iteration cap. `λ` is the load the body carries (springs and
-//! gravity pressing in), which the stiff penalty's force equals only at equilibrium.
+//! of four poses past the 300-iteration cap.
 //! The residual is a force balance: springs + gravity + contact + friction, over the
 //! vertex's weight.
 
