@@ -33,7 +33,8 @@ struct Args {
     /// Steps in the normalised ω cube, comma-separated (0 re-runs the fabric as given).
     #[arg(long, value_delimiter = ',', default_value = "0,0.005,0.02,0.06")]
     deltas: Vec<f64>,
-    /// Coulomb friction coefficient of the drapes (default: the datasets' setting).
+    /// Coulomb friction coefficient of the drapes, with the cloth carried with the body
+    /// between steps (default: the solver's defaults, frictionless).
     #[arg(long)]
     friction: Option<f64>,
 }
@@ -62,6 +63,7 @@ fn main() -> Result<()> {
     let mut settings = SequenceSettings::default();
     if let Some(mu) = args.friction {
         settings.drape.friction = mu;
+        settings.follow_body = true;
     }
     let norm = DIRECTION.iter().map(|d| d * d).sum::<f64>().sqrt();
     let drapes = |material: &Material| -> Result<Vec<Vec<Vec3>>> {

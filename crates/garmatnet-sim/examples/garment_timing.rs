@@ -24,6 +24,7 @@ fn main() -> anyhow::Result<()> {
     let mut settings = SequenceSettings::default();
     if let Ok(v) = std::env::var("FRICTION") {
         settings.drape.friction = v.parse()?;
+        settings.follow_body = true;
     }
     if let Ok(v) = std::env::var("KC_RATIO") {
         settings.drape.contact_stiffness_ratio = v.parse()?;

@@ -78,7 +78,7 @@ impl Default for SequenceSettings {
             drape: DrapeSettings::default(),
             max_step_rad: 0.014,
             intermediate_iterations: 4,
-            follow_body: true,
+            follow_body: false,
         }
     }
 }
