@@ -67,7 +67,7 @@ fn main() -> Result<()> {
     }
     let norm = DIRECTION.iter().map(|d| d * d).sum::<f64>().sqrt();
     let drapes = |material: &Material| -> Result<Vec<Vec<Vec3>>> {
-        let mut all = Vec::new();
+        let mut kept = Vec::new();
         drape_sequence(
             &garment,
             &body,
@@ -75,12 +75,14 @@ fn main() -> Result<()> {
             &poses,
             &settings,
             None,
-            |_, x, _| {
-                all.push(x.to_vec());
+            |frame, x, _| {
+                if measured.contains(&frame) {
+                    kept.push(x.to_vec());
+                }
                 Ok(())
             },
         )?;
-        Ok(measured.iter().map(|&f| all[f].clone()).collect())
+        Ok(kept)
     };
     println!(
         "frames {}..={} of the brisk motion, walked in sequence; friction {}",

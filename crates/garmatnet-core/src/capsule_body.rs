@@ -244,12 +244,12 @@ impl PosedBody {
         &self.transforms
     }
 
-    /// Where the point `p`, near this posed body's surface, is carried when the body
-    /// moves to `to` (the same body in another pose): `p` blended over the relative
-    /// skinning transforms `T_to · T_self⁻¹` of the capsules near it, with the weights
-    /// [`SkinnedBody::skin_weights`] gives at the corresponding rest point. Cloth that
-    /// sticks to the skin moves this way; the drape solver's friction measures slip from
-    /// it.
+    /// Moves `points`, near this posed body's surface, to where the skin carries them when
+    /// the body moves to `to` (the same body in another pose): each point blended over the
+    /// relative skinning transforms `T_to · T_self⁻¹` of the capsules near it, with the
+    /// weights [`SkinnedBody::skin_weights`] gives at the corresponding rest point. Cloth
+    /// that sticks to the skin moves this way; the drape solver's friction measures slip
+    /// from it.
     ///
     /// ```
     /// use garmatnet_core::{CapsuleBody, Pose, Vec3};
@@ -258,17 +258,17 @@ impl PosedBody {
     /// let mut raised = Pose::zero();
     /// raised.set_joint(0, Vec3::new(0.0, 0.5, 0.0)); // the whole body turns about y
     /// let p = Vec3::new(0.0, 0.2, 0.15);
-    /// let moved = rest.carry_to(&body.pose(&raised), &p);
-    /// assert!((moved - p).norm() > 0.01);
+    /// let mut moved = [p];
+    /// rest.carry_to(&body.pose(&raised), &mut moved);
+    /// assert!((moved[0] - p).norm() > 0.01);
     /// ```
-    #[must_use]
-    pub fn carry_to(&self, to: &PosedBody, p: &Vec3) -> Vec3 {
-        let weights = blend_weights(&self.capsules, &self.body.shared.capsules, p);
-        let point = nalgebra::Point3::from(*p);
-        weights.iter().fold(Vec3::zeros(), |acc, &(j, w)| {
-            let relative = to.transforms[j] * self.transforms[j].inverse();
-            acc + (relative * point).coords * w
-        })
+    pub fn carry_to(&self, to: &PosedBody, points: &mut [Vec3]) {
+        let relative: [Iso3; JOINT_COUNT] =
+            std::array::from_fn(|j| to.transforms[j] * self.transforms[j].inverse());
+        for p in points {
+            let weights = blend_weights(&self.capsules, &self.body.shared.capsules, p);
+            *p = blend_point(&relative, &weights, p);
+        }
     }
 
     /// The rest body this was posed from.
@@ -500,6 +500,11 @@ mod tests {
 
     #[test]
     fn carried_points_move_with_the_skin() {
+        let carry = |from: &PosedBody, to: &PosedBody, p: Vec3| {
+            let mut moved = [p];
+            from.carry_to(to, &mut moved);
+            moved[0]
+        };
         let b = body();
         let rest = b.pose(&Pose::zero());
         let mut pose = Pose::zero();
@@ -513,7 +518,7 @@ mod tests {
         // Away from joints, a point rides its bone rigidly: its distance to the surface
         // and its place in the bone's frame are kept.
         let on_forearm = joint("left_elbow") + Vec3::new(0.13, 0.05, 0.0);
-        let moved = rest.carry_to(&posed, &on_forearm);
+        let moved = carry(&rest, &posed, on_forearm);
         let rigid =
             (t[joint_index("left_elbow").unwrap()] * nalgebra::Point3::from(on_forearm)).coords;
         assert_relative_eq!(moved, rigid, epsilon = 1e-9);
@@ -534,19 +539,19 @@ mod tests {
         step.set_joint(joint_index("spine1").unwrap(), Vec3::new(0.05, 0.0, 0.02));
         let stepped = b.pose(&step);
         for p in points_near_surface(300, 5) {
-            let there = rest.carry_to(&stepped, &p);
+            let there = carry(&rest, &stepped, p);
             assert!(
                 (stepped.distance(&there) - rest.distance(&p)).abs() < 3e-3,
                 "{p:?}: {} -> {}",
                 rest.distance(&p),
                 stepped.distance(&there)
             );
-            let back = stepped.carry_to(&rest, &there);
+            let back = carry(&stepped, &rest, there);
             assert!((back - p).norm() < 1e-3, "{p:?} came back as {back:?}");
         }
         // A body that does not move carries nothing.
         let p = joint("spine3") + Vec3::new(0.0, 0.0, 0.13);
-        assert_relative_eq!(posed.carry_to(&posed, &p), p, epsilon = 1e-12);
+        assert_relative_eq!(carry(&posed, &posed, p), p, epsilon = 1e-12);
     }
 
     #[test]

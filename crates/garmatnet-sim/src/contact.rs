@@ -1,6 +1,5 @@
 //! Cloth-body contact helpers: an empty collider, smooth lagged Coulomb friction on a
-//! contact vertex, and
-//! the final projection out of the collider.
+//! contact vertex, and the final projection out of the collider.
 
 use garmatnet_core::{Mat3, Real, SignedDistance, Vec3};
 
@@ -14,15 +13,15 @@ impl SignedDistance for EmptySpace {
     }
 }
 
-/// Smooth Coulomb friction on one contact vertex, lagged at the start of a Newton
-/// iteration (the incremental-potential-contact formulation of Li et al. 2020, for a quasi-
-/// static step): with the contact's outward unit `normal` and `weight = μ λ` (the friction
+/// Smooth Coulomb friction on one contact vertex, lagged at the start of a drape (the
+/// incremental-potential-contact formulation of Li et al. 2020, for a quasi-static step): with the contact's outward unit `normal` and `weight = μ λ` (the friction
 /// coefficient times the normal force, newtons) held fixed, the vertex's tangential slip
 /// `u = (I - n nᵀ)(x - a)` from its anchor `a` (where it sat before the step, carried
 /// with the body) costs `D(u) = μ λ f0(|u|)`. `f0` is `|u|` beyond the slip length `ε`
 /// (sliding: a force of exactly `μ λ` against the slip) and a cubic blend below it (static
-/// friction as a spring of stiffness `2 μ λ / ε` at rest), so `D` is twice continuously
-/// differentiable away from `|u| = ε` and convex in `u`, and Newton can converge on it.
+/// friction as a spring of stiffness `2 μ λ / ε` at rest) whose first and second
+/// derivatives meet those of `|u|` at `ε`, so `D` is twice continuously differentiable and
+/// convex in `u`, and Newton can converge on it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct FrictionContact {
     /// Outward unit normal of the contact.

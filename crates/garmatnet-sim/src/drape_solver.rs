@@ -269,11 +269,9 @@ impl DrapeSolver {
             is_pinned: &is_pinned,
         };
         let mut friction = Friction::new(s.friction, s.friction_slip, anchors);
-        let free_count = is_pinned.iter().filter(|p| !**p).count().max(1);
 
         let mut contacts: Vec<Option<Contact>> = vec![None; n];
-        let mut conservative = vec![Vec3::zeros(); n];
-        let mut gradient = conservative.clone();
+        let mut gradient = vec![Vec3::zeros(); n];
         let mut diagonal = vec![Mat3::zeros(); n];
         let mut coupling = vec![Mat3::zeros(); model.springs().len()];
         let mut rhs = vec![0.0; 3 * n];
@@ -286,13 +284,12 @@ impl DrapeSolver {
         let (residual, max_residual, contact_force, converged) = loop {
             // The gradient of Φ_k at x_k (conservative forces plus friction) and the
             // force-balance residual.
-            energy.gradient(positions, collider, &mut contacts, &mut conservative);
+            energy.gradient(positions, collider, &mut contacts, &mut gradient);
             if iterations == 0 {
-                friction.lag(&energy, &contacts, &conservative);
+                friction.lag(&energy, &contacts, &gradient);
             }
-            gradient.copy_from_slice(&conservative);
             let balance = friction.add_to_gradient(positions, &mut gradient);
-            let (rms, max) = force_residual(&gradient, masses, &is_pinned, s.gravity, free_count);
+            let (rms, max) = force_residual(&gradient, masses, &is_pinned, s.gravity);
             let done = rms <= s.residual_tolerance && max <= s.max_residual_tolerance;
             if done || iterations >= s.max_iterations {
                 let contact_force = (0..n)
@@ -365,8 +362,7 @@ impl DrapeSolver {
                 }
                 energy.gradient(&trial, collider, &mut trial_contacts, &mut trial_gradient);
                 friction.add_to_gradient(&trial, &mut trial_gradient);
-                let (trial_rms, _) =
-                    force_residual(&trial_gradient, masses, &is_pinned, s.gravity, free_count);
+                let (trial_rms, _) = force_residual(&trial_gradient, masses, &is_pinned, s.gravity);
                 if trial_rms < rms {
                     accepted = true;
                     alpha = 1.0;
@@ -429,18 +425,20 @@ fn force_residual(
     masses: &[Real],
     is_pinned: &[bool],
     gravity: Real,
-    free_count: usize,
 ) -> (Real, Real) {
-    let (sum, max) = gradient
+    let (sum, max, count) = gradient
         .iter()
         .zip(masses)
         .zip(is_pinned)
         .filter(|(_, pinned)| !**pinned)
-        .fold((0.0, 0.0 as Real), |(sum, max), ((g, m), _)| {
-            let e = g.norm() / (m * gravity);
-            (sum + e * e, max.max(e))
-        });
-    ((sum / free_count as Real).sqrt(), max)
+        .fold(
+            (0.0, 0.0 as Real, 0usize),
+            |(sum, max, count), ((g, m), _)| {
+                let e = g.norm() / (m * gravity);
+                (sum + e * e, max.max(e), count + 1)
+            },
+        );
+    ((sum / count.max(1) as Real).sqrt(), max)
 }
 
 /// The friction of one drape: the starting contacts' lagged normals and `μ λ`, and the
@@ -464,8 +462,8 @@ impl<'a> Friction<'a> {
     }
 
     /// Gives friction to every contact of the starting positions (`contacts` are their
-    /// contacts, `conservative` their energy gradient), lagging its normal and `μ λ` there
-    /// for the whole drape.
+    /// contacts, `conservative` their energy gradient, friction not included), lagging its
+    /// normal and `μ λ` there for the whole drape.
     ///
     /// The normal force `λ` is the load the body carries, `n · ∇(E - penalty)` (springs and
     /// gravity pressing the vertex in), not the penalty's own force: the two agree at

@@ -66,9 +66,9 @@ pub struct SequenceSettings {
     pub intermediate_iterations: usize,
     /// Whether each step starts from the previous result carried with the body
     /// ([`garmatnet_core::PosedBody::carry_to`]) and measures friction from there, as cloth
-    /// resting on moving skin does. Default true. With false each step starts where the
-    /// cloth was and friction treats the body as still (how datasets were walked before
-    /// friction: `false` with zero friction reproduces them bit for bit).
+    /// resting on moving skin does. Default false: each step starts where the cloth was and
+    /// friction treats the body as still, how every dataset so far was walked (with zero
+    /// friction, bit for bit). Turn it on with [`DrapeSettings::friction`].
     pub follow_body: bool,
 }
 
@@ -160,13 +160,9 @@ pub fn drape_sequence(
     let mut step = |solver: &mut DrapeSolver, positions: &mut Vec<Vec3>, pose: &Pose| {
         let next = body.pose(pose);
         if settings.follow_body {
-            for (a, p) in anchors.iter_mut().zip(positions.iter_mut()) {
-                *a = posed.carry_to(&next, p);
-                *p = *a;
-            }
-        } else {
-            anchors.copy_from_slice(positions);
+            posed.carry_to(&next, positions);
         }
+        anchors.copy_from_slice(positions);
         posed = next;
         solver.drape_with_anchors(positions, &anchors, &posed, &[])
     };
