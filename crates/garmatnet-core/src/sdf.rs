@@ -6,22 +6,41 @@ use crate::skeleton::Skeleton;
 
 /// A closed surface given by its signed distance: metres, negative inside, positive outside.
 pub trait SignedDistance: Sync {
-    /// The signed distance at `p` and its gradient (unit length wherever the field is
-    /// differentiable; an arbitrary unit vector elsewhere).
+    /// The signed distance at `p` and its gradient there: the exact derivative of
+    /// [`SignedDistance::distance`] wherever the field is differentiable, so forces derived
+    /// from a potential of the distance agree with that potential. Unit length for a true
+    /// distance field; shorter (never longer) in the blend regions of a smooth union, which
+    /// is only a distance bound there. Where the field is not differentiable, any vector of
+    /// length at most one.
     fn distance_and_gradient(&self, p: &Vec3) -> (Real, Vec3);
+
+    /// The signed distance at `p` and the outward unit normal: the gradient normalised
+    /// (`+y` where it vanishes).
+    fn distance_and_normal(&self, p: &Vec3) -> (Real, Vec3) {
+        let (d, g) = self.distance_and_gradient(p);
+        let length = g.norm();
+        (
+            d,
+            if length > 1e-12 {
+                g / length
+            } else {
+                Vec3::y()
+            },
+        )
+    }
 
     /// The signed distance at `p`.
     fn distance(&self, p: &Vec3) -> Real {
         self.distance_and_gradient(p).0
     }
 
-    /// The closest surface point to `p`: Newton steps along the gradient until the distance
+    /// The closest surface point to `p`: Newton steps along the normal until the distance
     /// is below 0.1 mm (one step for true distance fields; smooth unions of primitives are
     /// only distance *bounds* in their blend regions, where each step recovers part of it).
     fn project(&self, p: &Vec3) -> Vec3 {
         let mut x = *p;
         for _ in 0..PROJECTION_STEPS {
-            let (d, g) = self.distance_and_gradient(&x);
+            let (d, g) = self.distance_and_normal(&x);
             if d.is_nan() || d.abs() < 1e-4 {
                 break;
             }
@@ -30,13 +49,13 @@ pub trait SignedDistance: Sync {
         x
     }
 
-    /// `p` moved along the gradient until it is at least `clearance` metres outside the
+    /// `p` moved along the normal until it is at least `clearance` metres outside the
     /// surface; points already that far out are returned unchanged (the same iteration as
     /// [`SignedDistance::project`], for the same reason).
     fn push_outside(&self, p: &Vec3, clearance: Real) -> Vec3 {
         let mut x = *p;
         for _ in 0..PROJECTION_STEPS {
-            let (d, g) = self.distance_and_gradient(&x);
+            let (d, g) = self.distance_and_normal(&x);
             // A tiny slack keeps rounding from re-flagging a point just placed at the
             // clearance; a NaN distance (a broken field) leaves the point where it is.
             if d.is_nan() || d >= clearance - 1e-9 {

@@ -217,13 +217,13 @@ impl Grid {
     }
 }
 
-/// Two Newton steps along the gradient, kept only if they stay near the cell (a guard
+/// Two Newton steps along the normal, kept only if they stay near the cell (a guard
 /// against creases where the gradient jumps).
 fn pull_onto_surface<S: SignedDistance + ?Sized>(sdf: &S, guess: Vec3, spacing: Real) -> Vec3 {
     let mut p = guess;
     for _ in 0..2 {
-        let (d, g) = sdf.distance_and_gradient(&p);
-        p -= g * d;
+        let (d, n) = sdf.distance_and_normal(&p);
+        p -= n * d;
     }
     if (p - guess).norm() <= spacing {
         p

@@ -15,7 +15,11 @@ use crate::cloth_model::ClothModel;
 pub(crate) struct Contact {
     /// Signed distance to the collider (metres, < margin).
     pub(crate) distance: Real,
-    /// Outward unit normal (the distance field's gradient).
+    /// The distance field's gradient: the penalty's force is along it, with its length,
+    /// so the force is the exact derivative of the penalty energy (a smooth union's
+    /// gradient is shorter than unit in its blend regions).
+    pub(crate) gradient: Vec3,
+    /// Outward unit normal (the gradient normalised), for friction.
     pub(crate) normal: Vec3,
 }
 
@@ -43,13 +47,24 @@ impl DrapeEnergy<'_> {
         if self.is_pinned[i] {
             return None;
         }
-        let (distance, normal) = collider.distance_and_gradient(x);
-        (distance < self.margin).then_some(Contact { distance, normal })
+        let (distance, gradient) = collider.distance_and_gradient(x);
+        (distance < self.margin).then(|| {
+            let length = gradient.norm();
+            Contact {
+                distance,
+                gradient,
+                normal: if length > 1e-12 {
+                    gradient / length
+                } else {
+                    Vec3::y()
+                },
+            }
+        })
     }
 
-    /// The penalty's normal force magnitude on a contact (newtons, >= 0).
-    pub(crate) fn normal_force(&self, i: usize, c: &Contact) -> Real {
-        self.contact_stiffness[i] * (self.margin - c.distance)
+    /// The penalty's force on a contact: `k_c (margin - φ) ∇φ` (newtons, outward).
+    pub(crate) fn penalty_force(&self, i: usize, c: &Contact) -> Vec3 {
+        c.gradient * (self.contact_stiffness[i] * (self.margin - c.distance))
     }
 
     /// Fills `contacts` and `gradient` (newtons; zero on pinned vertices) at `x`.
@@ -65,7 +80,7 @@ impl DrapeEnergy<'_> {
             gradient[i] = Vec3::new(0.0, masses[i] * self.gravity, 0.0);
             contacts[i] = self.contact(i, &x[i], collider);
             if let Some(c) = &contacts[i] {
-                gradient[i] -= c.normal * self.normal_force(i, c);
+                gradient[i] -= self.penalty_force(i, c);
             }
         }
         for s in self.model.springs() {
@@ -85,7 +100,7 @@ impl DrapeEnergy<'_> {
     }
 
     /// Adds the Hessian's spring blocks (projected to PSD: the transverse term is dropped in
-    /// compression) and contact blocks (Gauss-Newton `k_c n nᵀ`) to `diagonal`, and writes
+    /// compression) and contact blocks (Gauss-Newton `k_c ∇φ ∇φᵀ`) to `diagonal`, and writes
     /// the coupling blocks (`-K_s`, zero where a spring end is pinned) into `coupling`.
     pub(crate) fn add_hessian(
         &self,
@@ -117,7 +132,7 @@ impl DrapeEnergy<'_> {
         }
         for (i, c) in contacts.iter().enumerate() {
             if let Some(c) = c {
-                diagonal[i] += c.normal * c.normal.transpose() * self.contact_stiffness[i];
+                diagonal[i] += c.gradient * c.gradient.transpose() * self.contact_stiffness[i];
             }
         }
     }
@@ -167,7 +182,7 @@ mod tests {
     use approx::assert_relative_eq;
     use garmatnet_core::Sphere;
 
-    fn total(e: &DrapeEnergy<'_>, x: &[Vec3], sphere: &Sphere) -> Real {
+    fn total(e: &DrapeEnergy<'_>, x: &[Vec3], sphere: &impl SignedDistance) -> Real {
         let zero: Vec<Vec3> = vec![Vec3::zeros(); x.len()];
         let none = vec![None; x.len()];
         // Energy relative to all vertices at the origin with springs at length 0 and no
@@ -181,8 +196,34 @@ mod tests {
         base + e.change(&zero, x, &none, sphere)
     }
 
+    /// A sphere's distance halved: a distance bound whose gradient is shorter than unit,
+    /// as a smooth union's is in its blend regions.
+    struct HalvedSphere(Sphere);
+
+    impl SignedDistance for HalvedSphere {
+        fn distance_and_gradient(&self, p: &Vec3) -> (Real, Vec3) {
+            let (d, g) = self.0.distance_and_gradient(p);
+            (0.5 * d, 0.5 * g)
+        }
+    }
+
     #[test]
     fn gradient_matches_finite_differences() {
+        check_gradient(&Sphere {
+            centre: Vec3::zeros(),
+            radius: 1.0,
+        });
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences_where_the_field_is_only_a_distance_bound() {
+        check_gradient(&HalvedSphere(Sphere {
+            centre: Vec3::zeros(),
+            radius: 1.0,
+        }));
+    }
+
+    fn check_gradient(sphere: &impl SignedDistance) {
         let x0 = [
             Vec3::new(0.0, 1.02, 0.0),
             Vec3::new(0.3, 0.95, 0.1),
@@ -203,10 +244,6 @@ mod tests {
             },
         ];
         let model = ClothModel::new(&x0, &springs, &[0.1, 0.2, 0.3]).unwrap();
-        let sphere = Sphere {
-            centre: Vec3::zeros(),
-            radius: 1.0,
-        };
         let stiffness = [500.0, 800.0, 900.0];
         let pinned = [false; 3];
         let e = DrapeEnergy {
@@ -218,7 +255,7 @@ mod tests {
         };
         let mut contacts = vec![None; 3];
         let mut g = vec![Vec3::zeros(); 3];
-        e.gradient(&x0, &sphere, &mut contacts, &mut g);
+        e.gradient(&x0, sphere, &mut contacts, &mut g);
         assert!(contacts[0].is_some() && contacts[1].is_some() && contacts[2].is_none());
         let h = 1e-6;
         for i in 0..3 {
@@ -227,7 +264,7 @@ mod tests {
                 let mut xm = x0.to_vec();
                 xp[i][c] += h;
                 xm[i][c] -= h;
-                let fd = (total(&e, &xp, &sphere) - total(&e, &xm, &sphere)) / (2.0 * h);
+                let fd = (total(&e, &xp, sphere) - total(&e, &xm, sphere)) / (2.0 * h);
                 assert_relative_eq!(g[i][c], fd, epsilon = 1e-5, max_relative = 1e-6);
             }
         }

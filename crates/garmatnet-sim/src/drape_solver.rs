@@ -293,7 +293,7 @@ impl DrapeSolver {
             let done = rms <= s.residual_tolerance && max <= s.max_residual_tolerance;
             if done || iterations >= s.max_iterations {
                 let contact_force = (0..n)
-                    .filter_map(|i| contacts[i].map(|c| c.normal * energy.normal_force(i, &c)))
+                    .filter_map(|i| contacts[i].map(|c| energy.penalty_force(i, &c)))
                     .fold(balance, |sum, f| sum + f);
                 break (rms, max, contact_force, done);
             }
@@ -481,7 +481,7 @@ impl<'a> Friction<'a> {
         }
         for (i, (c, l)) in contacts.iter().zip(self.lagged.iter_mut()).enumerate() {
             *l = c.map(|c| {
-                let load = conservative[i].dot(&c.normal) + energy.normal_force(i, &c);
+                let load = (conservative[i] + energy.penalty_force(i, &c)).dot(&c.normal);
                 FrictionContact {
                     normal: c.normal,
                     weight: self.coefficient * load.max(0.0),
