@@ -33,8 +33,9 @@ struct Args {
     /// Steps in the normalised ω cube, comma-separated (0 re-runs the fabric as given).
     #[arg(long, value_delimiter = ',', default_value = "0,0.005,0.02,0.06")]
     deltas: Vec<f64>,
-    /// Coulomb friction coefficient of the drapes, with the cloth carried with the body
-    /// between steps (default: the solver's defaults, frictionless).
+    /// Coulomb friction coefficient of the drapes (default: the solver's, 0.3, with the
+    /// cloth carried with the body between steps; 0 walks frictionless, not carried, as
+    /// datasets made before friction were).
     #[arg(long)]
     friction: Option<f64>,
 }
@@ -63,7 +64,7 @@ fn main() -> Result<()> {
     let mut settings = SequenceSettings::default();
     if let Some(mu) = args.friction {
         settings.drape.friction = mu;
-        settings.follow_body = true;
+        settings.follow_body = mu > 0.0;
     }
     let norm = DIRECTION.iter().map(|d| d * d).sum::<f64>().sqrt();
     let drapes = |material: &Material| -> Result<Vec<Vec<Vec3>>> {

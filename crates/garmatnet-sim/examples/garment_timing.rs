@@ -1,6 +1,8 @@
 //! Run: `cargo run -p garmatnet-sim --release --example garment_timing -- [coarse|default|paper] [poses] [preset]`
 //!
 //! Times the T-shirt's cold drape on the rest body and a short warm-started pose sequence.
+//! `FRICTION=mu` sets the friction coefficient (0: frictionless, the cloth not carried with
+//! the body, as datasets made before friction).
 
 use std::time::Instant;
 
@@ -24,7 +26,7 @@ fn main() -> anyhow::Result<()> {
     let mut settings = SequenceSettings::default();
     if let Ok(v) = std::env::var("FRICTION") {
         settings.drape.friction = v.parse()?;
-        settings.follow_body = true;
+        settings.follow_body = settings.drape.friction > 0.0;
     }
     if let Ok(v) = std::env::var("KC_RATIO") {
         settings.drape.contact_stiffness_ratio = v.parse()?;

@@ -38,12 +38,11 @@ pub struct DrapeSettings {
     /// Coulomb friction coefficient between cloth and collider (dimensionless; 0 is
     /// frictionless). Friction is smooth and lagged (see [`crate::drape_solver`]) and acts
     /// on each contact vertex's slip from its anchor, so a shirt on a moving body stays
-    /// where it landed unless pulled harder than the Coulomb bound. Default 0 (off, as the
-    /// shipped model's data): with 0.3 (and [`crate::SequenceSettings::follow_body`]) drapes
-    /// of two fabrics 0.5 % apart in ω lay 3.1 mm apart on average instead of 10 mm (4.6
-    /// instead of 67 mm in the worst frame; README, "The ground truth's noise floor"), but a
-    /// coarse test shirt's walk still stalls with it (every line search refused), so it is
-    /// not the default yet.
+    /// where it landed unless pulled harder than the Coulomb bound. Default 0.3 (cotton on
+    /// skin): with it (and [`crate::SequenceSettings::follow_body`]) drapes of two fabrics
+    /// 0.5 % apart in ω lay 3.1 mm apart on average instead of 10 mm frictionless (4.6
+    /// instead of 67 mm in the worst frame; README, "The ground truth's noise floor"). 0
+    /// gives the frictionless contact of datasets made before this default.
     pub friction: Real,
     /// Slip length of the friction (metres): below it static friction is a spring of
     /// stiffness `2 μ λ / ε`; beyond it the vertex slides against `μ λ`.
@@ -65,7 +64,7 @@ impl Default for DrapeSettings {
             contact_margin: 0.003,
             contact_stiffness_ratio: 0.0,
             min_contact_stiffness: 300.0,
-            friction: 0.0,
+            friction: 0.3,
             friction_slip: 1e-3,
             max_step: 0.02,
         }

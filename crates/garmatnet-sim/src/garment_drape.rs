@@ -66,9 +66,10 @@ pub struct SequenceSettings {
     pub intermediate_iterations: usize,
     /// Whether each step starts from the previous result carried with the body
     /// ([`garmatnet_core::PosedBody::carry_to`]) and measures friction from there, as cloth
-    /// resting on moving skin does. Default false: each step starts where the cloth was and
-    /// friction treats the body as still, how every dataset so far was walked (with zero
-    /// friction, bit for bit). Turn it on with [`DrapeSettings::friction`].
+    /// resting on moving skin does. Default true. With false each step starts where the
+    /// cloth was and friction treats the body as still (holding cloth in place while the
+    /// skin slides under it); datasets made before friction were walked that way, with
+    /// zero friction.
     pub follow_body: bool,
 }
 
@@ -78,8 +79,28 @@ impl Default for SequenceSettings {
             drape: DrapeSettings::default(),
             max_step_rad: 0.014,
             intermediate_iterations: 4,
-            follow_body: false,
+            follow_body: true,
         }
+    }
+}
+
+impl SequenceSettings {
+    /// The settings a dataset's manifest records (its `solver` field). Missing fields take
+    /// the defaults, except friction: a manifest written before friction existed has no
+    /// `drape.friction` or `follow_body`, and its samples were walked frictionless, so
+    /// those read as 0 and false.
+    ///
+    /// # Errors
+    /// The JSON's error if `solver` is not a settings object.
+    pub fn from_manifest(solver: &serde_json::Value) -> serde_json::Result<Self> {
+        let mut settings: Self = serde_json::from_value(solver.clone())?;
+        if solver.pointer("/drape/friction").is_none() {
+            settings.drape.friction = 0.0;
+        }
+        if solver.get("follow_body").is_none() {
+            settings.follow_body = false;
+        }
+        Ok(settings)
     }
 }
 

@@ -248,3 +248,21 @@ fn a_resumed_sequence_continues_bit_identically() {
     assert_eq!(resumed[0], full[2]);
     assert_eq!(resumed[1], full[3]);
 }
+
+#[test]
+fn manifests_that_predate_friction_read_as_frictionless() {
+    let defaults = SequenceSettings::default();
+    assert!(defaults.drape.friction > 0.0 && defaults.follow_body);
+    // Written before friction: no `drape.friction`, no `follow_body`.
+    let mut old = serde_json::to_value(&defaults).unwrap();
+    old["drape"].as_object_mut().unwrap().remove("friction");
+    old.as_object_mut().unwrap().remove("follow_body");
+    let read = SequenceSettings::from_manifest(&old).unwrap();
+    assert_eq!(read.drape.friction, 0.0);
+    assert!(!read.follow_body);
+    assert_eq!(read.max_step_rad, defaults.max_step_rad);
+    // Written now: read back as written.
+    let now = serde_json::to_value(&defaults).unwrap();
+    assert_eq!(SequenceSettings::from_manifest(&now).unwrap(), defaults);
+    assert!(SequenceSettings::from_manifest(&serde_json::json!([1, 2])).is_err());
+}

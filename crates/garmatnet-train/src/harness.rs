@@ -263,8 +263,8 @@ fn bench_simulator(
     if cases.is_empty() {
         return Ok(Vec::new());
     }
-    let reference: SequenceSettings =
-        serde_json::from_value(data.spec().solver.clone()).map_err(|e| Error::Dataset {
+    let reference =
+        SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
             dir: data.dir().to_owned(),
             message: format!("the manifest's solver settings do not parse: {e}"),
         })?;
