@@ -18,15 +18,7 @@ pub trait SignedDistance: Sync {
     /// (`+y` where it vanishes).
     fn distance_and_normal(&self, p: &Vec3) -> (Real, Vec3) {
         let (d, g) = self.distance_and_gradient(p);
-        let length = g.norm();
-        (
-            d,
-            if length > 1e-12 {
-                g / length
-            } else {
-                Vec3::y()
-            },
-        )
+        (d, g.try_normalize(1e-12).unwrap_or_else(Vec3::y))
     }
 
     /// The signed distance at `p`.

@@ -48,17 +48,10 @@ impl DrapeEnergy<'_> {
             return None;
         }
         let (distance, gradient) = collider.distance_and_gradient(x);
-        (distance < self.margin).then(|| {
-            let length = gradient.norm();
-            Contact {
-                distance,
-                gradient,
-                normal: if length > 1e-12 {
-                    gradient / length
-                } else {
-                    Vec3::y()
-                },
-            }
+        (distance < self.margin).then(|| Contact {
+            distance,
+            gradient,
+            normal: gradient.try_normalize(1e-12).unwrap_or_else(Vec3::y),
         })
     }
 

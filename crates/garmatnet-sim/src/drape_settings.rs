@@ -40,8 +40,8 @@ pub struct DrapeSettings {
     /// on each contact vertex's slip from its anchor, so a shirt on a moving body stays
     /// where it landed unless pulled harder than the Coulomb bound. Default 0.3 (cotton on
     /// skin): with it (and [`crate::SequenceSettings::follow_body`]) drapes of two fabrics
-    /// 0.5 % apart in ω lay 3.1 mm apart on average instead of 10 mm frictionless (4.6
-    /// instead of 67 mm in the worst frame; README, "The ground truth's noise floor"). 0
+    /// 0.5 % apart in ω lay 2.6 mm apart on average instead of 14 mm frictionless (3.1
+    /// instead of 46 mm in the worst frame; README, "The ground truth's noise floor"). 0
     /// gives the frictionless contact of datasets made before this default.
     pub friction: Real,
     /// Slip length of the friction (metres): below it static friction is a spring of
