@@ -19,8 +19,13 @@ pub(crate) struct Contact {
     /// so the force is the exact derivative of the penalty energy (a smooth union's
     /// gradient is shorter than unit in its blend regions).
     pub(crate) gradient: Vec3,
+}
+
+impl Contact {
     /// Outward unit normal (the gradient normalised), for friction.
-    pub(crate) normal: Vec3,
+    pub(crate) fn normal(&self) -> Vec3 {
+        self.gradient.try_normalize(1e-12).unwrap_or_else(Vec3::y)
+    }
 }
 
 /// The energy's constant data for one drape.
@@ -48,11 +53,7 @@ impl DrapeEnergy<'_> {
             return None;
         }
         let (distance, gradient) = collider.distance_and_gradient(x);
-        (distance < self.margin).then(|| Contact {
-            distance,
-            gradient,
-            normal: gradient.try_normalize(1e-12).unwrap_or_else(Vec3::y),
-        })
+        (distance < self.margin).then_some(Contact { distance, gradient })
     }
 
     /// The penalty's force on a contact: `k_c (margin - φ) ∇φ` (newtons, outward).

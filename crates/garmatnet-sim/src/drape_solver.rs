@@ -481,9 +481,10 @@ impl<'a> Friction<'a> {
         }
         for (i, (c, l)) in contacts.iter().zip(self.lagged.iter_mut()).enumerate() {
             *l = c.map(|c| {
-                let load = (conservative[i] + energy.penalty_force(i, &c)).dot(&c.normal);
+                let normal = c.normal();
+                let load = (conservative[i] + energy.penalty_force(i, &c)).dot(&normal);
                 FrictionContact {
-                    normal: c.normal,
+                    normal,
                     weight: self.coefficient * load.max(0.0),
                 }
             });
