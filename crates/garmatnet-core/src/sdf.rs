@@ -4,6 +4,14 @@
 use crate::math::{Real, Vec3};
 use crate::skeleton::Skeleton;
 
+/// The outward unit normal of a distance field with gradient `gradient`: the gradient
+/// normalised, `+y` where it vanishes (the rule [`SignedDistance::distance_and_normal`]
+/// uses, for callers that already hold a gradient).
+#[must_use]
+pub fn unit_normal(gradient: &Vec3) -> Vec3 {
+    gradient.try_normalize(1e-12).unwrap_or_else(Vec3::y)
+}
+
 /// A closed surface given by its signed distance: metres, negative inside, positive outside.
 pub trait SignedDistance: Sync {
     /// The signed distance at `p` and its gradient there: the exact derivative of
@@ -18,7 +26,7 @@ pub trait SignedDistance: Sync {
     /// (`+y` where it vanishes).
     fn distance_and_normal(&self, p: &Vec3) -> (Real, Vec3) {
         let (d, g) = self.distance_and_gradient(p);
-        (d, g.try_normalize(1e-12).unwrap_or_else(Vec3::y))
+        (d, unit_normal(&g))
     }
 
     /// The signed distance at `p`.

@@ -6,7 +6,7 @@
 //! differences computed term by term (so the line search can compare energies near
 //! convergence, where the total is dominated by gravity and rounding would hide the change).
 
-use garmatnet_core::{Mat3, Real, SignedDistance, Vec3};
+use garmatnet_core::{Mat3, Real, SignedDistance, Vec3, unit_normal};
 
 use crate::cloth_model::ClothModel;
 
@@ -24,7 +24,7 @@ pub(crate) struct Contact {
 impl Contact {
     /// Outward unit normal (the gradient normalised), for friction.
     pub(crate) fn normal(&self) -> Vec3 {
-        self.gradient.try_normalize(1e-12).unwrap_or_else(Vec3::y)
+        unit_normal(&self.gradient)
     }
 }
 
