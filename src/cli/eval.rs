@@ -48,8 +48,13 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     };
     let report = evaluate(&inputs, &config)?;
     let g = &report.garmatnet;
+    let set = if report.test_materials.is_empty() {
+        "every fabric x held-out poses"
+    } else {
+        "target materials x held-out poses"
+    };
     println!(
-        "GarMatNet (target materials x held-out poses): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
+        "GarMatNet ({set}): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
         g.fitting_mm, g.local_mm, g.whole_mm
     );
     if let Some(b) = &report.baseline {

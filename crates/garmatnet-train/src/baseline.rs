@@ -185,6 +185,13 @@ pub fn train_baseline(
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let keys = data.keys();
     let split = data.split(&config.split)?;
+    if split.test_materials.is_empty() {
+        return Err(Error::InvalidConfig(
+            "the baseline trains one net pair per target material, and the split has none; \
+             name the target materials (e.g. the paper's four, the default)"
+                .into(),
+        ));
+    }
     let device = select_device(&config.device)?;
     let ad = device.clone().autodiff();
     let n = data.vertex_count();

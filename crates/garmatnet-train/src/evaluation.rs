@@ -888,6 +888,64 @@ mod tests {
     }
 
     #[test]
+    fn a_model_trained_on_every_fabric_is_evaluated_on_the_held_out_poses() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 4, 20);
+        let model = dir.path().join("all.safetensors");
+        let mut config = tiny_config(5);
+        config.split.test_materials.clear();
+        train(&data, &model, &config, &RunOptions::default()).unwrap();
+        // No target material, so no per-target baseline: a clear error, not an empty one.
+        let err = train_baseline(
+            &data,
+            &dir.path().join("baseline"),
+            &BaselineConfig::from_train_config(&config),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("name the target materials"), "{err}");
+
+        let out = dir.path().join("eval");
+        let inputs = EvalInputs {
+            data_dir: data,
+            model,
+            baseline: None,
+            compare_model: None,
+            out_dir: out.clone(),
+        };
+        let eval_config = EvalConfig {
+            timing_repeats: 1,
+            timing_batch: 2,
+            ..EvalConfig::default()
+        };
+        let report = evaluate(&inputs, &eval_config).unwrap();
+        // 4 fabrics x held-out frames 0 and 10, all of them compared.
+        assert!(report.test_materials.is_empty());
+        assert_eq!(report.garmatnet.samples, 8);
+        assert_eq!(report.garmatnet_all_test.samples, 8);
+        assert_eq!(report.per_sample.len(), 8);
+        let g = report.garmatnet;
+        assert!(g.whole_mm.is_finite() && g.whole_mm <= g.fitting_mm + g.local_mm + 1e-9);
+        let parts = report.garmatnet_by_part.clone().unwrap();
+        assert!(parts.unseen_material.is_none());
+        assert_eq!(parts.unseen_pose.unwrap().samples, 8);
+        assert!(report.fabric_lookup.is_none() && report.baseline.is_none());
+        let md = report.to_markdown();
+        assert!(
+            md.contains("test materials: none (every fabric trained on)"),
+            "{md}"
+        );
+        assert!(md.contains("every fabric × held-out poses"), "{md}");
+        // The heat maps fall back to a fabric that was tested.
+        assert!(report.files.iter().any(|f| f.starts_with("heatmap_")));
+        for f in &report.files {
+            assert!(out.join(f).exists(), "{f} missing");
+        }
+    }
+
+    #[test]
     fn the_nearest_material_is_the_closest_candidate_and_the_first_on_a_tie() {
         let target = [0.5; MATERIAL_DIM];
         let at = |x: f64| {

@@ -77,7 +77,13 @@ pub(crate) fn heat_maps(
     model: &GarMatNetModel,
     device: &Device,
 ) -> Result<Vec<String>> {
-    let Some(&material) = split.test_materials.first() else {
+    // The first target material, or without targets the first fabric tested.
+    let Some(material) = split
+        .test_materials
+        .first()
+        .copied()
+        .or_else(|| split.test.first().map(|k| k.material))
+    else {
         return Ok(Vec::new());
     };
     let baseline_net =

@@ -18,7 +18,9 @@ use crate::error::{Error, Result};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SplitConfig {
-    /// The unseen target materials: all their samples are test samples.
+    /// The unseen target materials: all their samples are test samples. Empty: every
+    /// fabric is trained on and the test set is the held-out poses alone (a model to ship,
+    /// not the paper's protocol; there is then no baseline to compare).
     pub test_materials: Vec<String>,
     /// Poses whose source frame index `f` has `f % held_out_frame_every < held_out_block`
     /// are held out (test) for every material; the paper uses every 10th frame
@@ -174,7 +176,11 @@ impl Split {
                 config.held_out_block, config.held_out_frame_every
             )));
         }
-        let test_materials = material_indices(spec, &config.test_materials)?;
+        let test_materials = if config.test_materials.is_empty() {
+            Vec::new()
+        } else {
+            material_indices(spec, &config.test_materials)?
+        };
         let dev_materials = if config.dev_materials.is_empty() {
             Vec::new()
         } else {
@@ -253,14 +259,15 @@ impl Split {
     }
 
     /// Test samples of a target material at a held-out pose: the set the per-material
-    /// baseline can be compared on (the paper's 4 materials × 73 poses).
+    /// baseline can be compared on (the paper's 4 materials × 73 poses). Without target
+    /// materials, every test sample (each fabric at the held-out poses).
     #[must_use]
     pub fn comparison_test(&self) -> Vec<SampleKey> {
         self.test
             .iter()
             .copied()
             .filter(|k| {
-                self.test_materials.contains(&k.material)
+                (self.test_materials.is_empty() || self.test_materials.contains(&k.material))
                     && self.held_out_poses.binary_search(&k.pose).is_ok()
             })
             .collect()
@@ -444,6 +451,27 @@ mod tests {
         let rest = (5 * 36) as f64;
         assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
         assert_eq!(split.comparison_test().len(), 2 * 4);
+    }
+
+    #[test]
+    fn without_target_materials_every_fabric_trains_and_the_held_out_poses_test() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        let every_fabric = SplitConfig {
+            test_materials: Vec::new(),
+            ..config()
+        };
+        let split = Split::new(&spec, &settled(&keys), "h", &every_fabric).unwrap();
+        assert!(split.test_materials.is_empty());
+        for k in &keys {
+            assert_eq!(split.test.contains(k), k.pose % 10 == 0, "{k:?}");
+        }
+        split.check_no_leak(Path::new("s.json")).unwrap();
+        // Every fabric is trained on, and the comparison set is the whole test set.
+        for m in 0..7 {
+            assert!(split.train.iter().any(|k| k.material == m), "M{m}");
+        }
+        assert_eq!(split.comparison_test(), split.test);
+        assert_eq!(split.test.len(), 7 * 4);
     }
 
     #[test]
