@@ -871,6 +871,16 @@ mod tests {
         }
         let md = std::fs::read_to_string(out.join("report.md")).unwrap();
         assert!(md.contains("Baseline (TailorNet-style)") && md.contains("Winner"));
+        assert!(md.contains("GarMatNet, whole test set"), "{md}");
+        // Per target material, both methods, over its 2 compared samples.
+        let per_material = md.split("## Per material (whole pipeline").nth(1).unwrap();
+        let rows: Vec<&str> = per_material
+            .lines()
+            .filter(|l| l.contains(" | 2 | "))
+            .take_while(|l| l.starts_with('|'))
+            .collect();
+        assert_eq!(rows.len(), 2, "{md}");
+        assert!(rows.iter().all(|r| !r.ends_with("| – |")), "{rows:?}");
         assert!(md.contains("every 10th frame"), "{md}");
 
         // A baseline trained with other held-out poses may have seen the comparison poses.
@@ -938,6 +948,14 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("every fabric × held-out poses"), "{md}");
+        // The comparison set is the whole test set: its rows are not repeated, and the
+        // per-material summary ranks the 4 fabrics (2 samples each, no baseline).
+        assert!(
+            !md.contains("whole test set") && !md.contains("at unseen poses"),
+            "{md}"
+        );
+        assert!(md.contains("## Per material (whole pipeline"), "{md}");
+        assert_eq!(md.matches(" | 2 | ").count(), 4, "{md}");
         // The heat maps fall back to a fabric that was tested.
         assert!(report.files.iter().any(|f| f.starts_with("heatmap_")));
         for f in &report.files {
