@@ -30,7 +30,7 @@ pub use dataset_generator::{
     BODY_NAME, GenerateConfig, GenerateReport, SampleDeriver, SampleDone, dataset_spec,
     generate_dataset,
 };
-pub use dataset_reader::{DatasetReader, DatasetReport, Summary, check};
+pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
 pub use drape_settings::DrapeSettings;
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
