@@ -183,8 +183,8 @@ pub struct DatasetReport {
     pub max_penetration_m: Summary,
     /// Largest edge strains.
     pub max_strain: Summary,
-    /// Samples with a spring stretched past [`OVER_STRETCH`] (torn or snagged cloth: a
-    /// limb through a seam, a pinch between body parts), as (stem, max strain), worst first.
+    /// Samples with a spring stretched past [`OVER_STRETCH`] (torn or snagged cloth, e.g.
+    /// pulled apart where an arm meets the torso), as (stem, max strain), worst first.
     /// Readable and finite, so not corrupt, but not a drape to learn from unseen.
     pub over_stretched: Vec<(String, f64)>,
 }
