@@ -53,6 +53,14 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         other_pace.contains("other poses") && other_pace.contains("--motion gentle"),
         "{other_pace}"
     );
+    // An arm–torso clearance that would forbid hanging arms is refused, naming the default.
+    let too_wide = garmatnet(&[&simulate[..], &["--arm-clearance", "0.5"]].concat(), dir)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        too_wide.contains("--arm-clearance") && too_wide.contains("0.04"),
+        "{too_wide}"
+    );
 
     let small = [
         "--data",

@@ -10,7 +10,8 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    GenerateConfig, MotionGenerator, MotionPace, SequenceSettings, Shard, generate_dataset,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, MotionGenerator, MotionPace,
+    SequenceSettings, Shard, generate_dataset,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -37,6 +38,11 @@ pub struct SimulateArgs {
     /// or `gentle` (the motion of datasets made before the brisk pace; use it to resume one).
     #[arg(long, default_value = "brisk")]
     pub motion: MotionPace,
+    /// Smallest gap (metres) the built-in motion keeps between the arms and the torso, so no
+    /// cloth is pinched (and torn) between them; 0 turns the check off, as datasets made
+    /// before it existed (resume those with `--arm-clearance 0`).
+    #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
+    pub arm_clearance: f64,
     /// Template resolution: coarse, default or paper.
     #[arg(long, default_value = "default")]
     pub resolution: Resolution,
@@ -105,7 +111,15 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     materials.extend(random_materials(args.random_materials, args.material_seed)?);
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
-        Ok(n) => MotionGenerator::with_pace(args.seed, n, args.motion).generate(),
+        Ok(n) => {
+            // Refuses a clearance outside 0 … 0.1 m with a message (the generator clamps).
+            ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
+            MotionGenerator {
+                arm_clearance: args.arm_clearance,
+                ..MotionGenerator::with_pace(args.seed, n, args.motion)
+            }
+            .generate()
+        }
         Err(_) => read_poses(std::path::Path::new(&args.poses))
             .with_context(|| format!("reading poses from {}", args.poses))?,
     };
@@ -158,13 +172,15 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let report = match report {
         Err(e) if is_pose_mismatch(&e) && args.poses.parse::<usize>().is_ok() => {
             return Err(e).context(format!(
-                "{} was made with other poses than `--poses {} --motion {} --seed {}` gives; \
-                 resume it with the pace and seed it was made with (datasets made before the \
-                 brisk pace existed: `--motion gentle`)",
+                "{} was made with other poses than `--poses {} --motion {} --seed {} \
+                 --arm-clearance {}` gives; resume it with the pace, seed and clearance it was \
+                 made with (datasets made before the arm clearance existed: `--arm-clearance 0`; \
+                 before the brisk pace: also `--motion gentle`)",
                 args.out.display(),
                 args.poses,
                 args.motion,
-                args.seed
+                args.seed,
+                args.arm_clearance
             ));
         }
         other => other?,

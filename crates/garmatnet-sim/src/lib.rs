@@ -5,6 +5,7 @@
 //! pseudo-transient continuation, penalty contact and smooth Coulomb friction measured
 //! relative to the moving body.
 
+pub mod arm_clearance;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -23,6 +24,7 @@ mod newton_system;
 pub mod sample_arrays;
 pub mod shard;
 
+pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
