@@ -2,7 +2,9 @@
 //!
 //! Times the T-shirt's cold drape on the rest body and a short warm-started pose sequence.
 //! `FRICTION=mu` sets the friction coefficient (0: frictionless, the cloth not carried with
-//! the body, as datasets made before friction).
+//! the body, as datasets made before friction). `SEED=s` picks the built-in motion's seed
+//! (default 3; datasets use 0) and `ARM_CLEARANCE=m` its arm–torso clearance (0: the motion
+//! before the clearance existed).
 
 use std::time::Instant;
 
@@ -22,7 +24,12 @@ fn main() -> anyhow::Result<()> {
         garment.vertex_count(),
         garment.springs.len()
     );
-    let poses = MotionGenerator::new(3, frames).generate();
+    let seed: u64 = std::env::var("SEED").map_or(Ok(3), |v| v.parse())?;
+    let mut motion = MotionGenerator::new(seed, frames);
+    if let Ok(v) = std::env::var("ARM_CLEARANCE") {
+        motion.arm_clearance = v.parse()?;
+    }
+    let poses = motion.generate();
     let mut settings = SequenceSettings::default();
     if let Ok(v) = std::env::var("FRICTION") {
         settings.drape.friction = v.parse()?;
