@@ -4,7 +4,8 @@
 //! `FRICTION=mu` sets the friction coefficient (0: frictionless, the cloth not carried with
 //! the body, as datasets made before friction). `SEED=s` picks the built-in motion's seed
 //! (default 3; datasets use 0) and `ARM_CLEARANCE=m` its arm–torso clearance (0: the motion
-//! before the clearance existed).
+//! before the clearance existed). `MAX_SURFACE_STEP=m` walks in steps that carry the cloth
+//! at most m metres (`SequenceSettings::max_surface_step`; 0, the default, is off).
 
 use std::time::Instant;
 
@@ -34,6 +35,9 @@ fn main() -> anyhow::Result<()> {
     if let Ok(v) = std::env::var("FRICTION") {
         settings.drape.friction = v.parse()?;
         settings.follow_body = settings.drape.friction > 0.0;
+    }
+    if let Ok(v) = std::env::var("MAX_SURFACE_STEP") {
+        settings.max_surface_step = v.parse()?;
     }
     if let Ok(v) = std::env::var("KC_RATIO") {
         settings.drape.contact_stiffness_ratio = v.parse()?;

@@ -64,6 +64,14 @@ pub struct SequenceSettings {
     pub max_step_rad: Real,
     /// Newton iterations on each intermediate pose (the cloth need only follow the body).
     pub intermediate_iterations: usize,
+    /// Largest distance (metres) the skin under the cloth may carry any cloth vertex per
+    /// intermediate step; 0 (the default) turns it off. When positive, a walk takes as many
+    /// equal steps as the cloth's longest path along the skin needs ([`surface_steps`]) —
+    /// never more than `max_step_rad` asks for — so joints the shirt does not cover (wrists,
+    /// knees) no longer set the pace. Left out of the JSON when 0, so manifests of datasets
+    /// made without it are unchanged.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub max_surface_step: Real,
     /// Whether each step starts from the previous result carried with the body
     /// ([`garmatnet_core::PosedBody::carry_to`]) and measures friction from there, as cloth
     /// resting on moving skin does. Default true. With false each step starts where the
@@ -80,6 +88,7 @@ impl Default for SequenceSettings {
             max_step_rad: 0.014,
             intermediate_iterations: 4,
             follow_body: true,
+            max_surface_step: 0.0,
         }
     }
 }
@@ -104,6 +113,64 @@ impl SequenceSettings {
     }
 }
 
+fn is_zero(x: &Real) -> bool {
+    *x == 0.0
+}
+
+/// The intermediate poses of a walk from `from` to `to` (`to` last, `from` left out) for cloth
+/// at `positions` on `body` posed at `from`: the [`interpolation_steps`] at `max_step_rad`,
+/// or, when `max_surface_step` is positive, as few equal slerp steps as keep every cloth
+/// vertex, carried with the skin ([`garmatnet_core::PosedBody::carry_to`]) along those
+/// steps, within `max_surface_step` metres of path per step. The path is measured over the
+/// `max_step_rad` steps, and the result never has more steps than they.
+///
+/// # Errors
+/// [`CoreError::InvalidArgument`] for a `max_step_rad` that is not positive and finite, or a
+/// `max_surface_step` that is negative or not finite.
+pub fn surface_steps(
+    body: &CapsuleBody,
+    from: &Pose,
+    to: &Pose,
+    positions: &[Vec3],
+    max_step_rad: Real,
+    max_surface_step: Real,
+) -> Result<Vec<Pose>> {
+    let fine = interpolation_steps(from, to, max_step_rad)?;
+    if !(max_surface_step.is_finite() && max_surface_step >= 0.0) {
+        return Err(CoreError::InvalidArgument(format!(
+            "max_surface_step must be a non-negative number of metres (0 turns it off), got \
+             {max_surface_step}"
+        ))
+        .into());
+    }
+    if max_surface_step == 0.0 || fine.len() == 1 {
+        return Ok(fine);
+    }
+    let mut points = positions.to_vec();
+    let mut path = vec![0.0; points.len()];
+    let mut posed = body.pose(from);
+    for pose in &fine {
+        let next = body.pose(pose);
+        let before = points.clone();
+        posed.carry_to(&next, &mut points);
+        for ((length, a), b) in path.iter_mut().zip(&before).zip(&points) {
+            *length += (b - a).norm();
+        }
+        posed = next;
+    }
+    let longest = path.iter().copied().fold(0.0, Real::max);
+    let n = ((longest / max_surface_step).ceil() as usize).clamp(1, fine.len());
+    Ok((1..=n)
+        .map(|i| {
+            if i == n {
+                to.clone()
+            } else {
+                from.slerp(to, i as Real / n as Real)
+            }
+        })
+        .collect())
+}
+
 /// Where a resumed [`drape_sequence`] picks up: pose `next - 1` is done and `positions` is
 /// its saved result (as stored in a dataset: f32 precision).
 #[derive(Debug, Clone, PartialEq)]
@@ -121,8 +188,8 @@ pub struct SequenceResume {
 /// that never stopped.
 ///
 /// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
-/// to each pose through intermediate poses ([`interpolation_steps`] at
-/// `settings.max_step_rad`), warm-starting every step from the previous result (carried with
+/// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
+/// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every step from the previous result (carried with
 /// the body when `settings.follow_body`) with `settings.intermediate_iterations` Newton
 /// iterations, and converges fully at each pose.
 /// Calls `on_sample(pose_index, positions, stats)` with the settled garment (metres) at
@@ -188,7 +255,14 @@ pub fn drape_sequence(
         solver.drape_with_anchors(positions, &anchors, &posed, &[])
     };
     for (index, target) in poses.iter().enumerate().skip(first) {
-        let steps = interpolation_steps(&current, target, settings.max_step_rad)?;
+        let steps = surface_steps(
+            body,
+            &current,
+            target,
+            &positions,
+            settings.max_step_rad,
+            settings.max_surface_step,
+        )?;
         let (last, between) = steps
             .split_last()
             .unwrap_or_else(|| unreachable!("interpolation ends at the target"));

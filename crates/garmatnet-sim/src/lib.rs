@@ -36,7 +36,9 @@ pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, ch
 pub use drape_settings::DrapeSettings;
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
-pub use garment_drape::{SequenceResume, SequenceSettings, cloth_from_garment, drape_sequence};
+pub use garment_drape::{
+    SequenceResume, SequenceSettings, cloth_from_garment, drape_sequence, surface_steps,
+};
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, Manifest, MaterialEntry, SampleRecord,

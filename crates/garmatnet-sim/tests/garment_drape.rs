@@ -3,7 +3,8 @@
 
 use approx::assert_relative_eq;
 use garmatnet_core::{
-    CapsuleBody, Garment, Material, Pose, Real, Resolution, SignedDistance, SkinnedBody, SpringKind,
+    CapsuleBody, Garment, Material, Pose, Real, Resolution, SignedDistance, SkinnedBody,
+    SpringKind, Vec3,
 };
 use garmatnet_sim::{
     DrapeSettings, MotionGenerator, SequenceSettings, cloth_from_garment, drape_sequence,
@@ -265,4 +266,50 @@ fn manifests_that_predate_friction_read_as_frictionless() {
     let now = serde_json::to_value(&defaults).unwrap();
     assert_eq!(SequenceSettings::from_manifest(&now).unwrap(), defaults);
     assert!(SequenceSettings::from_manifest(&serde_json::json!([1, 2])).is_err());
+}
+
+#[test]
+fn surface_steps_follow_the_cloth_not_the_joints_it_does_not_cover() {
+    let (body, garment) = coarse();
+    let cloth = &garment.rest.vertices;
+    let rest = Pose::zero();
+    let steps = |to: &Pose, surface: Real| {
+        garmatnet_sim::surface_steps(&body, &rest, to, cloth, 0.014, surface).unwrap()
+    };
+    // A wrist turning 0.6 rad: the angle rule takes 43 steps, the cloth moves not at all.
+    let mut wrist = Pose::zero();
+    wrist.set_joint(20, Vec3::new(0.0, 0.0, 0.6));
+    assert_eq!(steps(&wrist, 0.0).len(), 43);
+    assert_eq!(steps(&wrist, 0.01), vec![wrist.clone()]);
+    // A lowered shoulder carries the sleeve: several steps, each moving the carried cloth
+    // by about the limit at most, never more steps than the angle rule.
+    let mut shoulder = Pose::zero();
+    shoulder.set_joint(16, Vec3::new(0.0, 0.0, -0.6));
+    let walk = steps(&shoulder, 0.01);
+    assert!(walk.len() > 5 && walk.len() <= 43, "{} steps", walk.len());
+    assert_eq!(walk.last(), Some(&shoulder));
+    let (mut points, mut posed) = (cloth.clone(), body.pose(&rest));
+    for pose in &walk {
+        let next = body.pose(pose);
+        let before = points.clone();
+        posed.carry_to(&next, &mut points);
+        let moved = before
+            .iter()
+            .zip(&points)
+            .map(|(a, b)| (b - a).norm())
+            .fold(0.0, Real::max);
+        assert!(moved < 0.011, "a step carried cloth {moved} m");
+        posed = next;
+    }
+    // Off is exactly the angle rule; bad limits are refused.
+    assert_eq!(
+        steps(&shoulder, 0.0),
+        garmatnet_sim::interpolation_steps(&rest, &shoulder, 0.014).unwrap()
+    );
+    for bad in [-0.01, Real::NAN] {
+        assert!(garmatnet_sim::surface_steps(&body, &rest, &shoulder, cloth, 0.014, bad).is_err());
+    }
+    // Left out of the manifest when off, so older datasets' settings still match.
+    let json = serde_json::to_value(SequenceSettings::default()).unwrap();
+    assert!(json.get("max_surface_step").is_none(), "{json}");
 }
