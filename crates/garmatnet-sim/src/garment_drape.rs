@@ -10,7 +10,7 @@ use crate::cloth_model::{ClothModel, SpringSpec};
 use crate::drape_settings::DrapeSettings;
 use crate::drape_solver::{DrapeSolver, DrapeStats};
 use crate::error::Result;
-use crate::motion::interpolation_steps;
+use crate::motion::{equal_steps, interpolation_steps};
 
 /// The garment as a mass-spring cloth of `material`.
 ///
@@ -160,15 +160,7 @@ pub fn surface_steps(
     }
     let longest = path.iter().copied().fold(0.0, Real::max);
     let n = ((longest / max_surface_step).ceil() as usize).clamp(1, fine.len());
-    Ok((1..=n)
-        .map(|i| {
-            if i == n {
-                to.clone()
-            } else {
-                from.slerp(to, i as Real / n as Real)
-            }
-        })
-        .collect())
+    Ok(equal_steps(from, to, n))
 }
 
 /// Where a resumed [`drape_sequence`] picks up: pose `next - 1` is done and `positions` is

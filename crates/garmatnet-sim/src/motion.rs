@@ -440,7 +440,13 @@ pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result
     let total = from.max_joint_angle_to(to);
     // Slerp turns every joint uniformly in t, so n equal steps of t each turn ≤ total / n.
     let n = ((total / max_step_rad).ceil() as usize).max(1);
-    Ok((1..=n)
+    Ok(equal_steps(from, to, n))
+}
+
+/// `n` equal slerp steps from `from` to `to` (`from` left out, `to` exactly last).
+pub(crate) fn equal_steps(from: &Pose, to: &Pose, n: usize) -> Vec<Pose> {
+    let n = n.max(1);
+    (1..=n)
         .map(|i| {
             if i == n {
                 to.clone()
@@ -448,7 +454,7 @@ pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result
                 from.slerp(to, i as Real / n as Real)
             }
         })
-        .collect())
+        .collect()
 }
 
 #[cfg(test)]
