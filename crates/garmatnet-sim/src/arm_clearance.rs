@@ -6,8 +6,8 @@
 //! body, pushed out to both sides at once. The solver still converges, to a torn drape: in the
 //! 30 × 200 brisk dataset of seed 0 made before this check, 22 of 30 fabrics first tore at
 //! frames 167–177, exactly the frames whose upper arm dipped into the chest (gap −1.4 cm at
-//! frame 167, the first below zero). Nothing in the joint limits prevents it: a lowered
-//! shoulder (−1.3 rad) swung forward reaches the chest.
+//! frame 167, the first below zero). Nothing in the joint limits prevents it: a shoulder
+//! lowered by 1.3 rad and swung forward brings the upper arm into the chest.
 //!
 //! [`ArmClearance`] measures, per arm, the smallest gap between the arm's capsules (the upper
 //! arm without its root, which always sits in the armpit; forearm; palm; fingers) and the
