@@ -148,10 +148,11 @@ pub fn surface_steps(
     }
     let mut points = positions.to_vec();
     let mut path = vec![0.0; points.len()];
+    let mut before = points.clone();
     let mut posed = body.pose(from);
     for pose in &fine {
         let next = body.pose(pose);
-        let before = points.clone();
+        before.copy_from_slice(&points);
         posed.carry_to(&next, &mut points);
         for ((length, a), b) in path.iter_mut().zip(&before).zip(&points) {
             *length += (b - a).norm();
@@ -181,9 +182,9 @@ pub struct SequenceResume {
 ///
 /// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
 /// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
-/// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every step from the previous result (carried with
-/// the body when `settings.follow_body`) with `settings.intermediate_iterations` Newton
-/// iterations, and converges fully at each pose.
+/// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every
+/// step from the previous result (carried with the body when `settings.follow_body`) with
+/// `settings.intermediate_iterations` Newton iterations, and converges fully at each pose.
 /// Calls `on_sample(pose_index, positions, stats)` with the settled garment (metres) at
 /// every pose. Returns the stats of the rest drape followed by one per pose.
 ///

@@ -14,7 +14,8 @@
 //! moves more than `max_step_rad` per frame; every frame is then clamped into the limits,
 //! which can only shorten steps, and an arm that comes within
 //! [`MotionGenerator::arm_clearance`] of the torso is lifted toward the T-pose just enough
-//! ([`ArmClearance`]): without that, cloth caught between arm and torso tears. [`MotionPace`] sets how far apart keyframes are in frames:
+//! ([`ArmClearance`]): without that, cloth caught between arm and torso tears.
+//! [`MotionPace`] sets how far apart keyframes are in frames:
 //! the default [`MotionPace::Brisk`] puts a held-out frame about 0.43 (L2 over θ, radians)
 //! from its nearest training frame against a pose spread of about 1.1, the older
 //! [`MotionPace::Gentle`] only about 0.09.
