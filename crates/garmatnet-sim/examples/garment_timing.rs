@@ -6,6 +6,8 @@
 //! (default 3; datasets use 0) and `ARM_CLEARANCE=m` its arm–torso clearance (0: the motion
 //! before the clearance existed). `MAX_SURFACE_STEP=m` walks in steps that carry the cloth
 //! at most m metres (`SequenceSettings::max_surface_step`; 0, the default, is off).
+//! `STEP_EXPANSION=f` sets the line search's expansion (`DrapeSettings::step_expansion`; 1
+//! is off) and `INTERMEDIATE=k` the Newton iterations per intermediate step.
 
 use std::time::Instant;
 
@@ -39,6 +41,12 @@ fn main() -> anyhow::Result<()> {
     if let Ok(v) = std::env::var("MAX_SURFACE_STEP") {
         settings.max_surface_step = v.parse()?;
     }
+    if let Ok(v) = std::env::var("STEP_EXPANSION") {
+        settings.drape.step_expansion = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("INTERMEDIATE") {
+        settings.intermediate_iterations = v.parse()?;
+    }
     if let Ok(v) = std::env::var("KC_RATIO") {
         settings.drape.contact_stiffness_ratio = v.parse()?;
     }
@@ -52,14 +60,15 @@ fn main() -> anyhow::Result<()> {
         None,
         |i, _, s| {
             println!(
-                "pose {i}: {:.0} ms, {} it, rms {:.1e}, max {:.1e}, pen {:.1e}, strain {:.3}, conv {}",
+                "pose {i}: {:.0} ms, {} it, rms {:.1e}, max {:.1e}, pen {:.1e}, strain {:.3}, conv {}, expanded {}",
                 s.wall_time_ms,
                 s.iterations,
                 s.final_residual,
                 s.max_residual,
                 s.max_penetration,
                 s.max_strain,
-                s.converged
+                s.converged,
+                s.expanded_steps
             );
             Ok(())
         },

@@ -5,7 +5,12 @@
 //! Iteration `k` takes one damped Newton step on
 //! `Φ_k(x) = E(x) + D(x) + |x - x_k|^2_M / (2h^2)`: it solves `(M/h^2 + H) Δ = -∇Φ_k(x_k)`
 //! with `H` the PSD-projected spring Hessian, `k_c n nᵀ` per contact and the friction
-//! potential's Hessian, then backtracks on `Φ_k` (Armijo). `D` is the friction potential
+//! potential's Hessian, then backtracks on `Φ_k` (Armijo). Once `h` has reached its
+//! largest value (plain Newton), a full step that lowers `Φ_k` is lengthened by
+//! [`DrapeSettings::step_expansion`] again and again while `Φ_k` keeps falling: the
+//! projection drops the negative transverse stiffness of compressed springs, so the model is
+//! stiffer than the cloth where it buckles and its steps fall short as folds settle.
+//! `D` is the friction potential
 //! of Li et al. 2020's incremental potential contact, quasi-static: it charges each contact
 //! vertex for its tangential slip from its anchor, as a stiff spring within the slip length
 //! and as `μ λ` per metre beyond. It acts on the vertices in contact at the start of the
@@ -45,6 +50,8 @@ const GROWTH: Real = 3.0;
 /// Below this multiple of the RMS residual tolerance, a Newton step the line search refuses
 /// is still taken if it lowers the force residual.
 const NEAR_EQUILIBRIUM: Real = 100.0;
+/// Largest multiple of the Newton step the line search's expansion tries.
+const MAX_EXPANSION: Real = 64.0;
 /// Smallest pseudo time step (seconds).
 const MIN_TIME_STEP: Real = 1e-6;
 
@@ -73,6 +80,10 @@ pub struct DrapeStats {
     pub refactorizations: usize,
     /// Newton steps rejected by the line search (the pseudo time step shrank).
     pub rejected_steps: usize,
+    /// Newton steps lengthened beyond the full step by the line search's expansion
+    /// ([`DrapeSettings::step_expansion`]); 0 in stats recorded before it existed.
+    #[serde(default)]
+    pub expanded_steps: usize,
     /// Wall-clock time of the drape (milliseconds).
     pub wall_time_ms: Real,
     /// Whether both residual tolerances were met before the iteration cap.
@@ -281,6 +292,7 @@ impl DrapeSolver {
         let mut h = s.time_step;
         let mut iterations = 0;
         let mut rejected_steps = 0;
+        let mut expanded_steps = 0;
         let (residual, max_residual, contact_force, converged) = loop {
             // The gradient of Φ_k at x_k (conservative forces plus friction) and the
             // force-balance residual.
@@ -332,21 +344,45 @@ impl DrapeSolver {
                 .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]) * scale)
                 .collect();
             let slope: Real = (0..n).map(|i| gradient[i].dot(&step[i])).sum();
-            // Backtracking on Φ_k: E change + lagged friction + proximal (inertia) term.
-            let mut alpha = 1.0;
-            let mut accepted = false;
-            for _ in 0..=MAX_BACKTRACKS {
+            // Φ_k(x_k + α step) - Φ_k(x_k): E change + lagged friction + proximal (inertia)
+            // term.
+            let phi_change = |alpha: Real, trial: &mut [Vec3]| {
                 for i in 0..n {
                     trial[i] = positions[i] + step[i] * alpha;
                 }
-                let mut change = energy.change(positions, &trial, &contacts, collider)
-                    + friction.change(positions, &trial);
+                let mut change = energy.change(positions, trial, &contacts, collider)
+                    + friction.change(positions, trial);
                 for i in 0..n {
                     let d = step[i] * alpha;
                     change += 0.5 * masses[i] / (h * h) * d.norm_squared();
                 }
+                change
+            };
+            // Backtracking (Armijo) from the full step.
+            let mut alpha = 1.0;
+            let mut accepted = false;
+            for _ in 0..=MAX_BACKTRACKS {
+                let change = phi_change(alpha, &mut trial);
                 if change <= ARMIJO * alpha * slope {
                     accepted = true;
+                    if alpha == 1.0 && s.step_expansion > 1.0 && h >= s.max_time_step {
+                        // A full step that lowered Φ: lengthen it while Φ keeps falling.
+                        let step_length = longest * scale;
+                        let (mut best, mut next) = (change, s.step_expansion);
+                        while next * step_length <= s.max_step && next <= MAX_EXPANSION {
+                            let longer = phi_change(next, &mut trial);
+                            if longer.is_nan() || longer >= best {
+                                break;
+                            }
+                            (best, alpha, next) = (longer, next, next * s.step_expansion);
+                        }
+                        if alpha > 1.0 {
+                            expanded_steps += 1;
+                        }
+                        for i in 0..n {
+                            trial[i] = positions[i] + step[i] * alpha;
+                        }
+                    }
                     break;
                 }
                 alpha *= 0.5;
@@ -376,9 +412,9 @@ impl DrapeSolver {
                 }
                 positions.copy_from_slice(&trial);
                 // Full steps grow h towards plain Newton; damped ones mean it was too bold.
-                h = if alpha == 1.0 && scale == 1.0 {
+                h = if alpha >= 1.0 && scale == 1.0 {
                     h * GROWTH
-                } else if alpha == 1.0 {
+                } else if alpha >= 1.0 {
                     h
                 } else {
                     h * 0.5
@@ -403,6 +439,7 @@ impl DrapeSolver {
             contact_force,
             refactorizations: iterations,
             rejected_steps,
+            expanded_steps,
             wall_time_ms: start.elapsed().as_secs_f64() * 1e3,
             converged,
         })
@@ -528,7 +565,7 @@ impl<'a> Friction<'a> {
 }
 
 fn validate_settings(s: &DrapeSettings) -> Result<()> {
-    let checks: [(&str, Real, Real, Real); 11] = [
+    let checks: [(&str, Real, Real, Real); 12] = [
         ("time step (seconds)", s.time_step, 1e-6, 1e3),
         ("max time step (seconds)", s.max_time_step, s.time_step, 1e3),
         ("residual tolerance", s.residual_tolerance, 0.0, Real::MAX),
@@ -555,6 +592,12 @@ fn validate_settings(s: &DrapeSettings) -> Result<()> {
         ("friction coefficient", s.friction, 0.0, 10.0),
         ("friction slip length (metres)", s.friction_slip, 1e-7, 0.1),
         ("max step (metres)", s.max_step, 1e-9, 10.0),
+        (
+            "step expansion factor",
+            s.step_expansion,
+            1.0,
+            MAX_EXPANSION,
+        ),
     ];
     for (what, value, min, max) in checks {
         if !(value >= min && value <= max) {

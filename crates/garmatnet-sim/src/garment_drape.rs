@@ -95,9 +95,10 @@ impl Default for SequenceSettings {
 
 impl SequenceSettings {
     /// The settings a dataset's manifest records (its `solver` field). Missing fields take
-    /// the defaults, except friction: a manifest written before friction existed has no
-    /// `drape.friction` or `follow_body`, and its samples were walked frictionless, so
-    /// those read as 0 and false.
+    /// the defaults, except those whose default changed what a walk computes: a manifest
+    /// written before friction existed has no `drape.friction` or `follow_body`, and its
+    /// samples were walked frictionless, so those read as 0 and false; one written before
+    /// the line search's expansion has no `drape.step_expansion`, which reads as 1 (off).
     ///
     /// # Errors
     /// The JSON's error if `solver` is not a settings object.
@@ -108,6 +109,9 @@ impl SequenceSettings {
         }
         if solver.get("follow_body").is_none() {
             settings.follow_body = false;
+        }
+        if solver.pointer("/drape/step_expansion").is_none() {
+            settings.drape.step_expansion = 1.0;
         }
         Ok(settings)
     }

@@ -62,6 +62,44 @@ fn hanging_sheet_is_mirror_symmetric() {
 }
 
 #[test]
+fn the_line_search_expansion_drapes_a_sheet_on_a_sphere_in_fewer_iterations() {
+    // Cloth settling into folds is where the projected Hessian's Newton steps fall short.
+    let (model, start, sphere) = sheet_on_sphere(15, DENSITY, MID);
+    let drape = |expansion: Real| {
+        let settings = DrapeSettings {
+            step_expansion: expansion,
+            ..DrapeSettings::default()
+        };
+        let mut x = start.clone();
+        let stats = DrapeSolver::new(&model, &settings)
+            .unwrap()
+            .drape(&mut x, &sphere, &[])
+            .unwrap();
+        assert!(stats.converged, "expansion {expansion}: {stats:?}");
+        (x, stats)
+    };
+    let (plain, plain_stats) = drape(1.0);
+    let (expanded, expanded_stats) = drape(2.0);
+    let apart = plain
+        .iter()
+        .zip(&expanded)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, Real::max);
+    assert_eq!(plain_stats.expanded_steps, 0);
+    assert!(expanded_stats.expanded_steps > 0, "{expanded_stats:?}");
+    assert!(
+        expanded_stats.iterations < plain_stats.iterations,
+        "expanded {expanded_stats:?} plain {plain_stats:?}"
+    );
+    let weight = model.total_mass() * 9.81;
+    assert!(
+        (expanded_stats.contact_force.y - weight).abs() < 0.01 * weight,
+        "{expanded_stats:?}"
+    );
+    assert!(apart < 1e-3, "the two drapes lie {apart} m apart");
+}
+
+#[test]
 fn hanging_sag_grows_with_density_and_shrinks_with_stiffness() {
     let columns = 11;
     let base = sag(columns, &hanging(columns, DENSITY, MID).1);
@@ -216,6 +254,18 @@ fn bad_drape_inputs_are_typed_errors() {
         DrapeSolver::new(&model, &bad).unwrap_err(),
         Error::Core(CoreError::OutOfRange { .. })
     ));
+    for expansion in [0.5, Real::NAN, 1e3] {
+        let bad = DrapeSettings {
+            step_expansion: expansion,
+            ..DrapeSettings::default()
+        };
+        let e = DrapeSolver::new(&model, &bad).unwrap_err();
+        assert!(
+            matches!(&e, Error::Core(CoreError::OutOfRange { .. }))
+                && e.to_string().contains("step expansion"),
+            "{e}"
+        );
+    }
     let other = grid_sheet(6, 5, 0.02, DENSITY, MID).unwrap();
     assert!(matches!(
         solver.set_model(&other).unwrap_err(),

@@ -262,6 +262,16 @@ fn manifests_that_predate_friction_read_as_frictionless() {
     assert_eq!(read.drape.friction, 0.0);
     assert!(!read.follow_body);
     assert_eq!(read.max_step_rad, defaults.max_step_rad);
+    // Written before the line search's expansion: it reads as off, the rest as written.
+    let mut before = serde_json::to_value(&defaults).unwrap();
+    before["drape"]
+        .as_object_mut()
+        .unwrap()
+        .remove("step_expansion");
+    let read = SequenceSettings::from_manifest(&before).unwrap();
+    assert!(defaults.drape.step_expansion > 1.0);
+    assert_eq!(read.drape.step_expansion, 1.0);
+    assert_eq!(read.drape.friction, defaults.drape.friction);
     // Written now: read back as written.
     let now = serde_json::to_value(&defaults).unwrap();
     assert_eq!(SequenceSettings::from_manifest(&now).unwrap(), defaults);
