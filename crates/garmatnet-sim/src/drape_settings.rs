@@ -57,8 +57,9 @@ pub struct DrapeSettings {
     /// Hessian leaves out the negative transverse stiffness of compressed springs, so where
     /// cloth buckles and folds settle the Newton model is stiffer than the cloth and its
     /// steps fall short. Default 2: 27 % fewer Newton iterations settling the T-shirt at each
-    /// pose (README, "The ground-truth solver"). The few iterations of a walk's intermediate
-    /// steps never reach plain Newton, so the walk itself is unchanged. Manifests written
+    /// pose (README, "The ground-truth solver"). A walk's intermediate steps (4 iterations
+    /// at the default [`crate::SequenceSettings::intermediate_iterations`]) never reach plain
+    /// Newton, so the walk itself is unchanged. Manifests written
     /// before it existed read as 1 ([`crate::SequenceSettings::from_manifest`]).
     pub step_expansion: Real,
 }
