@@ -251,7 +251,7 @@ fn a_resumed_sequence_continues_bit_identically() {
 }
 
 #[test]
-fn manifests_that_predate_friction_read_as_frictionless() {
+fn manifests_that_predate_a_setting_read_it_as_the_walk_was_made() {
     let defaults = SequenceSettings::default();
     assert!(defaults.drape.friction > 0.0 && defaults.follow_body);
     // Written before friction: no `drape.friction`, no `follow_body`.
