@@ -45,6 +45,10 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     garmatnet(&simulate, dir)?;
     let check = garmatnet(&["dataset", "check", "data"], dir)?;
     assert!(check.contains("complete: 84"), "{check}");
+    assert!(
+        check.contains("Newton iterations per sample") && check.contains("worker-hours"),
+        "the check reports what the dataset cost: {check}"
+    );
     // Resuming with the other motion pace would mix two pose sequences: refused, with the fix.
     let other_pace = garmatnet(&[&simulate[..], &["--motion", "gentle"]].concat(), dir)
         .unwrap_err()

@@ -183,6 +183,11 @@ pub struct DatasetReport {
     pub max_penetration_m: Summary,
     /// Largest edge strains.
     pub max_strain: Summary,
+    /// Newton iterations of each sample's final converge.
+    pub iterations: Summary,
+    /// Solver time per sample (seconds of one worker: the walk from the previous pose plus
+    /// the converge), as recorded while the dataset was made, the machine's load included.
+    pub solver_seconds: Summary,
     /// Samples with a spring stretched past [`OVER_STRETCH`] (torn or snagged cloth, e.g.
     /// pulled apart where an arm meets the torso), as (stem, max strain), worst first.
     /// Readable and finite, so not corrupt, but not a drape to learn from unseen.
@@ -199,6 +204,13 @@ impl DatasetReport {
     #[must_use]
     pub fn is_ok(&self) -> bool {
         self.missing.is_empty() && self.corrupt.is_empty() && self.non_finite_values == 0
+    }
+
+    /// The finished samples' solver time in worker-hours: divide by the worker count
+    /// (`simulate --threads`) for the wall-clock time of making them on one machine.
+    #[must_use]
+    pub fn solver_hours(&self) -> f64 {
+        self.solver_seconds.mean * self.complete as f64 / 3600.0
     }
 }
 
@@ -228,7 +240,29 @@ impl fmt::Display for DatasetReport {
         let s = |x: &Summary| format!("min {:.3e}, mean {:.3e}, max {:.3e}", x.min, x.mean, x.max);
         writeln!(f, "residual: {}", s(&self.residual))?;
         writeln!(f, "max penetration (m): {}", s(&self.max_penetration_m))?;
-        write!(f, "max strain: {}", s(&self.max_strain))?;
+        writeln!(f, "max strain: {}", s(&self.max_strain))?;
+        let it = &self.iterations;
+        writeln!(
+            f,
+            "Newton iterations per sample: min {:.0}, mean {:.1}, max {:.0}",
+            it.min, it.mean, it.max
+        )?;
+        let time = &self.solver_seconds;
+        write!(
+            f,
+            "solver time: {:.2} worker-hours (mean {:.2} s per sample per worker, max {:.1} s)",
+            self.solver_hours(),
+            time.mean,
+            time.max
+        )?;
+        if !self.missing.is_empty() && self.complete > 0 {
+            write!(
+                f,
+                "\n  the {} missing, at that mean: about {:.2} worker-hours more",
+                self.missing.len(),
+                self.missing.len() as f64 * time.mean / 3600.0
+            )?;
+        }
         if !self.over_stretched.is_empty() {
             write!(
                 f,
@@ -283,6 +317,8 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
         residual: Summary::of(stats().map(|s| s.residual)),
         max_penetration_m: Summary::of(stats().map(|s| s.max_penetration_m)),
         max_strain: Summary::of(stats().map(|s| s.max_strain)),
+        iterations: Summary::of(stats().map(|s| s.iterations as f64)),
+        solver_seconds: Summary::of(stats().map(|s| s.wall_time_ms / 1e3)),
         over_stretched,
     })
 }
@@ -361,6 +397,29 @@ mod tests {
         assert_eq!((report.complete, report.missing.len()), (12, 0));
         assert_eq!(report.residual.max, 11.0);
         assert!((report.residual.mean - 5.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn solver_cost_is_summed_and_the_missing_samples_estimated() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        // 11 of the 12 samples, each taking 1 800 s of one worker and 10 + pose iterations.
+        for (m, p) in (0..3).flat_map(|m| (0..4).map(move |p| (m, p))).skip(1) {
+            let mut s = stats(0.0);
+            s.iterations = 10 + p as u64;
+            s.wall_time_ms = 1.8e6;
+            w.write_sample(m, p, &arrays(m, p), s).unwrap();
+        }
+        let report = check(dir.path()).unwrap();
+        assert_eq!((report.iterations.min, report.iterations.max), (10.0, 13.0));
+        assert!((report.solver_seconds.mean - 1800.0).abs() < 1e-9);
+        assert!((report.solver_hours() - 5.5).abs() < 1e-9);
+        let text = report.to_string();
+        assert!(text.contains("solver time: 5.50 worker-hours"), "{text}");
+        assert!(
+            text.contains("the 1 missing, at that mean: about 0.50 worker-hours more"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -55,7 +55,8 @@ pub struct SmoothingInfo {
 pub struct SampleStats {
     /// Solver iterations used.
     pub iterations: u64,
-    /// Final residual (solver-defined norm, N).
+    /// Final residual: RMS over free vertices of net force over weight, `|f_i| / (m_i g)`
+    /// (dimensionless; [`crate::DrapeStats::final_residual`]).
     pub residual: f64,
     /// Deepest garment penetration into the body (metres, ≥ 0).
     pub max_penetration_m: f64,
