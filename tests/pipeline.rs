@@ -97,6 +97,29 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         dir,
     )?;
     assert!(dir.join("model.safetensors").exists() && dir.join("model.split.json").exists());
+    // The model knows the fabrics it trained on (Cotton Poplin, Denim Heavy, Silk Chiffon):
+    // `drape` warns for a fabric outside their range, and only then.
+    let drape = |material: &str, out: &str| {
+        garmatnet(
+            &[
+                "drape",
+                "--model",
+                "model.safetensors",
+                "--material",
+                material,
+                "--out",
+                out,
+            ],
+            dir,
+        )
+    };
+    let outside = drape("Trim Fusible Rigid", "trim.obj")?;
+    assert!(
+        outside.contains("warning: the material lies outside the fabrics"),
+        "{outside}"
+    );
+    let inside = drape("Cotton Poplin", "poplin.obj")?;
+    assert!(!inside.contains("warning"), "{inside}");
 
     // Leave drapes that did not settle out of training (this 10-iteration solver leaves
     // many), with an annealed learning rate and rotation-matrix pose features: the split

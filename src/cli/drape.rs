@@ -74,6 +74,18 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             ..PushOut::default()
         });
     }
+    if let Some(range) = predictor.material_range() {
+        let outside = range.outside(&material.to_normalized());
+        if !outside.is_empty() {
+            let parts: Vec<String> = outside.iter().map(ToString::to_string).collect();
+            eprintln!(
+                "warning: the material lies outside the fabrics {} was trained on ({}): the \
+                 prediction is an extrapolation, expect larger errors",
+                model_path.display(),
+                parts.join("; ")
+            );
+        }
+    }
     // The first call warms the backend up; time the second.
     predictor.predict(&pose, &material, args.detail)?;
     let started = Instant::now();

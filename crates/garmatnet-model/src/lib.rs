@@ -28,6 +28,7 @@ pub mod default_model;
 pub mod device;
 pub mod error;
 pub mod garmatnet_net;
+pub mod material_range;
 pub mod model_file;
 mod model_tensors;
 pub mod output_normalizer;
@@ -43,6 +44,7 @@ pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;
 pub use error::{Error, Result};
 pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MATERIAL_DIM, OutputHead, PoseEncoding};
+pub use material_range::{MaterialRange, OutsideComponent};
 pub use model_file::{
     FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
 };

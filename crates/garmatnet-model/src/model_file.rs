@@ -26,6 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::garmatnet_net::{GarMatNet, GarMatNetConfig};
+use crate::material_range::MaterialRange;
 use crate::model_tensors::{
     TensorSource, checksum, net_from_tensors, net_tensors, norm_tensors, write_atomic,
 };
@@ -64,6 +65,12 @@ pub struct TrainingProvenance {
     pub losses: BTreeMap<String, f64>,
     /// Anything else the trainer wants to keep.
     pub extra: serde_json::Value,
+    /// The normalised materials the nets were trained on, as a per-component box (absent in
+    /// files written before it was recorded). [`crate::Predictor::material_range`] gives it
+    /// to callers, so they can tell a prediction inside what the model learned from an
+    /// extrapolation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub material_range: Option<MaterialRange>,
 }
 
 /// Everything about a model that is not a weight.
@@ -200,6 +207,14 @@ impl GarMatNetModel {
                     3 * n
                 )));
             }
+        }
+        if let Some(range) = &self.meta.provenance.material_range
+            && !range.is_valid()
+        {
+            return Err(Error::InvalidConfig(format!(
+                "the recorded training material range is not a box of finite values with \
+                 min <= max: {range:?}; re-train the model or remove the field"
+            )));
         }
         if self.fitting.config().displacement_frame != self.local.config().displacement_frame {
             return Err(Error::InvalidConfig(
@@ -387,6 +402,7 @@ impl GarMatNetModel {
 mod tests {
     use super::*;
     use crate::PoseEncoding;
+    use crate::garmatnet_net::MATERIAL_DIM;
     use crate::test_util::{cpu, random_inputs, small_model, to_vec};
 
     fn predictions(model: &GarMatNetModel, dev: &Device) -> (Vec<f32>, Vec<f32>) {
@@ -416,6 +432,11 @@ mod tests {
                     .init(&dev);
             }
             model.meta.provenance.command = "garmatnet train --seed 3".into();
+            // One file with the training material range, one without (as older files).
+            model.meta.provenance.material_range = rank.map(|_| MaterialRange {
+                min: [0.1, 0.2, 0.0, 0.05, 0.3, 0.25],
+                max: [0.7, 0.6, 0.45, 0.5, 0.9, 0.75],
+            });
             model
                 .meta
                 .provenance
@@ -438,6 +459,20 @@ mod tests {
                 assert_eq!(a.config().pose_encoding, b.config().pose_encoding);
             }
         }
+    }
+
+    #[test]
+    fn a_training_material_range_that_is_not_a_box_is_refused() {
+        let mut model = small_model(3, None, &cpu());
+        model.meta.provenance.material_range = Some(MaterialRange {
+            min: [0.5; MATERIAL_DIM],
+            max: [0.4; MATERIAL_DIM],
+        });
+        let err = model.validate().unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidConfig(_)) && err.to_string().contains("material range"),
+            "{err}"
+        );
     }
 
     #[test]

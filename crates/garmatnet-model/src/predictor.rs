@@ -14,6 +14,7 @@ use garmatnet_core::{
 
 use crate::error::{Error, Result};
 use crate::garmatnet_net::MATERIAL_DIM;
+use crate::material_range::MaterialRange;
 use crate::model_file::GarMatNetModel;
 use crate::push_out::{PushOut, PushOutReport, push_out};
 use crate::tensor_util::{matrix, to_f32};
@@ -209,6 +210,15 @@ impl Predictor {
     #[must_use]
     pub fn model(&self) -> &GarMatNetModel {
         &self.model
+    }
+
+    /// The box of normalised materials the model was trained on, when its file records it
+    /// (models trained before it was recorded, the shipped one among them, do not). A
+    /// material outside it ([`MaterialRange::outside`]) is an extrapolation: expect larger
+    /// errors there.
+    #[must_use]
+    pub fn material_range(&self) -> Option<&MaterialRange> {
+        self.model.meta.provenance.material_range.as_ref()
     }
 
     /// The device the nets run on.

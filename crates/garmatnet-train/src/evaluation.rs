@@ -8,7 +8,7 @@ use std::time::Instant;
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3, decompose};
 use garmatnet_model::{
-    Detail, GarMatNetModel, OutputNormalizer, Predictor, push_out, select_device,
+    Detail, GarMatNetModel, MaterialRange, OutputNormalizer, Predictor, push_out, select_device,
 };
 use serde::{Deserialize, Serialize};
 
@@ -16,8 +16,8 @@ use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 use crate::report::{
-    ErrorStats, FabricLookup, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report,
-    SampleErrors, TestParts, Timing, spread_mm,
+    ErrorStats, FabricLookup, FrameComparison, MaterialSupport, ModelSizes, PartErrors,
+    PenetrationStats, Report, SampleErrors, TestParts, Timing, spread_mm,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -258,6 +258,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         garmatnet_all_test,
         garmatnet_by_part: Some(by_part),
         fabric_lookup,
+        material_support: material_support(&data, &split),
         per_sample,
         penetration: penetration.finish(config.push_out_epsilon),
         timing,
@@ -267,6 +268,27 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     };
     report.write(&inputs.out_dir)?;
     Ok(report)
+}
+
+/// Each test material against the range of the materials in the split's training set.
+fn material_support(data: &TrainingDataset, split: &Split) -> Vec<MaterialSupport> {
+    let spec = data.spec();
+    let mut trained: Vec<usize> = split.train.iter().map(|k| k.material).collect();
+    trained.sort_unstable();
+    trained.dedup();
+    let Some(range) =
+        MaterialRange::of(trained.iter().map(|&m| spec.materials[m].omega_normalized))
+    else {
+        return Vec::new();
+    };
+    split
+        .test_materials
+        .iter()
+        .map(|&m| MaterialSupport {
+            material: spec.materials[m].name.clone(),
+            outside: range.outside(&spec.materials[m].omega_normalized),
+        })
+        .collect()
 }
 
 /// The training fabrics' true drapes as predictions of the `comparison` samples (see
@@ -826,6 +848,39 @@ mod tests {
             report
                 .to_markdown()
                 .contains("Nearest training fabric in ω")
+        );
+        // Each target against the range of the fabrics the model trained on (every non-target
+        // here): the components outside are exactly those past the training box.
+        let spec = TrainingDataset::open(&data, false).unwrap().spec().clone();
+        let trained: Vec<[f64; 6]> = spec
+            .materials
+            .iter()
+            .filter(|m| !report.test_materials.contains(&m.name))
+            .map(|m| m.omega_normalized)
+            .collect();
+        let range = MaterialRange::of(trained.iter().copied()).unwrap();
+        assert_eq!(report.material_support.len(), report.test_materials.len());
+        assert!(
+            report
+                .material_support
+                .iter()
+                .any(|s| !s.outside.is_empty()),
+            "random targets lie outside 4 training fabrics somewhere: {:?}",
+            report.material_support
+        );
+        for support in &report.material_support {
+            let omega = spec
+                .materials
+                .iter()
+                .find(|m| m.name == support.material)
+                .unwrap()
+                .omega_normalized;
+            assert_eq!(support.outside, range.outside(&omega), "{support:?}");
+        }
+        assert!(
+            report
+                .to_markdown()
+                .contains("| Material | Outside the training range |")
         );
         let mut by_fabric = report.clone();
         if let Some(p) = &mut by_fabric.garmatnet_by_part {

@@ -56,8 +56,8 @@ pub use evaluation::{EvalConfig, EvalInputs, evaluate};
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use report::{
-    ErrorStats, FrameComparison, ModelSizes, PartErrors, PenetrationStats, Report, SampleErrors,
-    TestParts, Timing,
+    ErrorStats, FrameComparison, MaterialSupport, ModelSizes, PartErrors, PenetrationStats, Report,
+    SampleErrors, TestParts, Timing,
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeView, OutputFormat, SimulatedDrape,

@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use garmatnet_model::OutsideComponent;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -131,6 +132,16 @@ pub struct FabricLookup {
     pub best_material: ErrorStats,
 }
 
+/// Where a test material lies relative to the materials the model trained on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialSupport {
+    /// The test material.
+    pub material: String,
+    /// Its components outside the training materials' per-component range (normalised ω),
+    /// empty when it lies inside: there the model interpolates, elsewhere it extrapolates.
+    pub outside: Vec<OutsideComponent>,
+}
+
 /// Everything [`crate::evaluate`] measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -160,6 +171,10 @@ pub struct Report {
     /// poses).
     #[serde(default)]
     pub fabric_lookup: Option<FabricLookup>,
+    /// Each test material against the training materials' range (absent from reports
+    /// written before it existed).
+    #[serde(default)]
+    pub material_support: Vec<MaterialSupport>,
     /// Per (material, pose) errors on the comparison set (Figs. 7–8).
     pub per_sample: Vec<SampleErrors>,
     /// Push-out statistics over the whole test set.
@@ -301,6 +316,27 @@ impl Report {
                 "Best training fabric, true drape (oracle)",
                 &f.best_material,
             );
+        }
+        if !self.material_support.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nTest materials against the training materials' range of normalised ω: \
+                 inside it the model interpolates, outside it extrapolates.\n"
+            );
+            let _ = writeln!(s, "| Material | Outside the training range |");
+            let _ = writeln!(s, "|---|---|");
+            for m in &self.material_support {
+                let outside = if m.outside.is_empty() {
+                    "inside".to_owned()
+                } else {
+                    m.outside
+                        .iter()
+                        .map(ToString::to_string)
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                };
+                let _ = writeln!(s, "| {} | {outside} |", m.material);
+            }
         }
         per_material_table(&mut s, &self.per_sample);
         let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");

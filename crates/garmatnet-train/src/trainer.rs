@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use burn::prelude::*;
 use garmatnet_core::DisplacementFrame;
 use garmatnet_model::{
-    GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, PoseEncoding,
-    TemplateInfo, TrainingProvenance, select_device,
+    GarMatNet, GarMatNetConfig, GarMatNetModel, MaterialRange, ModelMeta, OutputNormalizer,
+    PoseEncoding, TemplateInfo, TrainingProvenance, select_device,
 };
 use serde::{Deserialize, Serialize};
 
@@ -438,6 +438,12 @@ pub fn train(
         ]
         .into_iter()
         .collect(),
+        material_range: MaterialRange::of(
+            train_set
+                .keys
+                .iter()
+                .map(|k| data.spec().materials[k.material].omega_normalized),
+        ),
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
@@ -569,6 +575,18 @@ pub(crate) mod tests {
         );
         assert!(model.meta.provenance.losses["fitting_dev_mse"].is_finite());
         assert_eq!(model.meta.provenance.command, options.command);
+        // The model records the box of its training materials: every training fabric lies
+        // inside, and its bounds are theirs.
+        let dataset = TrainingDataset::open(&data, false).unwrap();
+        let materials = &dataset.spec().materials;
+        let training: Vec<[f64; 6]> = materials
+            .iter()
+            .filter(|m| !TARGETS.contains(&m.name.as_str()))
+            .map(|m| m.omega_normalized)
+            .collect();
+        let range = model.meta.provenance.material_range.unwrap();
+        assert_eq!(Some(range), MaterialRange::of(training.iter().copied()));
+        assert!(training.iter().all(|m| range.outside(m).is_empty()));
         assert!(s.split_path.exists());
         assert!(
             !s.checkpoint_dir.exists(),
