@@ -273,12 +273,8 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
 /// Each test material against the range of the materials in the split's training set.
 fn material_support(data: &TrainingDataset, split: &Split) -> Vec<MaterialSupport> {
     let spec = data.spec();
-    let mut trained: Vec<usize> = split.train.iter().map(|k| k.material).collect();
-    trained.sort_unstable();
-    trained.dedup();
-    let Some(range) =
-        MaterialRange::of(trained.iter().map(|&m| spec.materials[m].omega_normalized))
-    else {
+    let omega = |m: usize| spec.materials[m].omega_normalized;
+    let Some(range) = MaterialRange::of(split.train.iter().map(|k| omega(k.material))) else {
         return Vec::new();
     };
     split
@@ -286,7 +282,7 @@ fn material_support(data: &TrainingDataset, split: &Split) -> Vec<MaterialSuppor
         .iter()
         .map(|&m| MaterialSupport {
             material: spec.materials[m].name.clone(),
-            outside: range.outside(&spec.materials[m].omega_normalized),
+            outside: range.outside(&omega(m)),
         })
         .collect()
 }
