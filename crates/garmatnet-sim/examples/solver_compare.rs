@@ -13,25 +13,13 @@
 use garmatnet_core::{CapsuleBody, Garment, Material, Resolution, Vec3};
 use garmatnet_sim::{MotionGenerator, SequenceSettings, drape_sequence};
 
-/// The default settings with the fields of `json` replaced (`default`: none).
+/// The default settings with the fields `json` names replaced (`default`: none); the
+/// settings deserialise with defaults for every missing field, as `simulate --solver` reads them.
 fn settings(json: &str) -> anyhow::Result<SequenceSettings> {
     if json == "default" {
         return Ok(SequenceSettings::default());
     }
-    let mut base = serde_json::to_value(SequenceSettings::default())?;
-    merge(&mut base, &serde_json::from_str(json)?);
-    Ok(serde_json::from_value(base)?)
-}
-
-fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
-    match (base, patch) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
-            for (k, v) in p {
-                merge(b.entry(k.clone()).or_insert(serde_json::Value::Null), v);
-            }
-        }
-        (b, p) => *b = p.clone(),
-    }
+    Ok(serde_json::from_str(json)?)
 }
 
 /// Every frame's drape and settle iterations under `settings`.

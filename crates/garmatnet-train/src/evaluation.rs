@@ -8,7 +8,7 @@ use std::time::Instant;
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3, decompose};
 use garmatnet_model::{
-    Detail, GarMatNetModel, MaterialRange, OutputNormalizer, Predictor, push_out, select_device,
+    Detail, GarMatNetModel, OutputNormalizer, Predictor, push_out, select_device,
 };
 use serde::{Deserialize, Serialize};
 
@@ -274,7 +274,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
 fn material_support(data: &TrainingDataset, split: &Split) -> Vec<MaterialSupport> {
     let spec = data.spec();
     let omega = |m: usize| spec.materials[m].omega_normalized;
-    let Some(range) = MaterialRange::of(split.train.iter().map(|k| omega(k.material))) else {
+    let Some(range) = split.material_range(spec) else {
         return Vec::new();
     };
     split
@@ -734,6 +734,7 @@ mod tests {
     use crate::test_util::{synthetic_dataset, training_lock};
     use crate::trainer::tests::tiny_config;
     use crate::trainer::{RunOptions, TrainConfig, train};
+    use garmatnet_model::MaterialRange;
 
     #[test]
     fn evaluation_with_baseline_and_frame_comparison_is_finite_and_consistent() {

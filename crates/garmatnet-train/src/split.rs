@@ -8,6 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use garmatnet_core::{PAPER_TEST_MATERIALS, SplitMix64};
+use garmatnet_model::MaterialRange;
 use garmatnet_sim::{DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
@@ -123,6 +124,17 @@ pub struct Split {
 }
 
 impl Split {
+    /// The per-component range of normalised ω over the training samples' materials (what a
+    /// model trained on this split has seen), or `None` without training samples.
+    #[must_use]
+    pub fn material_range(&self, spec: &DatasetSpec) -> Option<MaterialRange> {
+        MaterialRange::of(
+            self.train
+                .iter()
+                .map(|k| spec.materials[k.material].omega_normalized),
+        )
+    }
+
     /// Splits the finished `samples` of the dataset described by `spec`.
     ///
     /// # Errors

@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use burn::prelude::*;
 use garmatnet_core::DisplacementFrame;
 use garmatnet_model::{
-    GarMatNet, GarMatNetConfig, GarMatNetModel, MaterialRange, ModelMeta, OutputNormalizer,
-    PoseEncoding, TemplateInfo, TrainingProvenance, select_device,
+    GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, PoseEncoding,
+    TemplateInfo, TrainingProvenance, select_device,
 };
 use serde::{Deserialize, Serialize};
 
@@ -438,12 +438,7 @@ pub fn train(
         ]
         .into_iter()
         .collect(),
-        material_range: MaterialRange::of(
-            train_set
-                .keys
-                .iter()
-                .map(|k| data.spec().materials[k.material].omega_normalized),
-        ),
+        material_range: split.material_range(data.spec()),
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
@@ -479,6 +474,7 @@ impl CheckpointState {
 pub(crate) mod tests {
     use super::*;
     use crate::test_util::{TARGETS, synthetic_dataset, training_lock};
+    use garmatnet_model::MaterialRange;
 
     /// A tiny, fast configuration for the synthetic datasets.
     pub(crate) fn tiny_config(max_epochs: usize) -> TrainConfig {
