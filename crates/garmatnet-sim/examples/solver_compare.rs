@@ -4,7 +4,8 @@
 //! Walks the T-shirt in fabric PRESET through the first FRAMES frames of the datasets' built-in
 //! brisk motion (seed 0, as `simulate` draws it for that many frames) twice, with two solver
 //! settings, and prints per frame the settle iterations of each and how far apart the two
-//! drapes lie (mean and largest per-vertex distance, mm). A setting is `default` or a JSON
+//! drapes lie (mean and largest per-vertex distance, mm), and the wall time of each walk
+//! (one after the other, on one thread). A setting is `default` or a JSON
 //! object of the `SequenceSettings` fields to change, e.g.
 //! `'{"drape": {"residual_tolerance": 0.01, "max_residual_tolerance": 0.5}}'`: what a solver
 //! change costs in drape accuracy, measured the way the README's "measured and not adopted"
@@ -59,10 +60,12 @@ fn main() -> anyhow::Result<()> {
     let (a, b) = (settings(&args[3])?, settings(&args[4])?);
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(resolution, &body)?;
-    let (walk_a, walk_b) = (
-        walk(&garment, &body, &material, frames, &a)?,
-        walk(&garment, &body, &material, frames, &b)?,
-    );
+    let start = std::time::Instant::now();
+    let walk_a = walk(&garment, &body, &material, frames, &a)?;
+    let seconds_a = start.elapsed().as_secs_f64();
+    let start = std::time::Instant::now();
+    let walk_b = walk(&garment, &body, &material, frames, &b)?;
+    let seconds_b = start.elapsed().as_secs_f64();
     println!("frame  iterations A  iterations B  mean mm  max mm");
     let (mut its_a, mut its_b, mut sum, mut worst) = (0, 0, 0.0, 0.0_f64);
     for (frame, ((xa, ia), (xb, ib))) in walk_a.iter().zip(&walk_b).enumerate() {
@@ -78,9 +81,11 @@ fn main() -> anyhow::Result<()> {
     }
     println!(
         "all {frames} frames: {its_a} vs {its_b} settle iterations ({:.2}x), drapes {:.2} mm apart \
-         on average, worst vertex {worst:.1} mm",
+         on average, worst vertex {worst:.1} mm; walks took {seconds_a:.1} s vs {seconds_b:.1} s \
+         ({:.2}x)",
         its_b as f64 / its_a.max(1) as f64,
-        sum / frames.max(1) as f64
+        sum / frames.max(1) as f64,
+        seconds_b / seconds_a
     );
     Ok(())
 }

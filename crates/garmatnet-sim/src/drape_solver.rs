@@ -318,7 +318,8 @@ impl DrapeSolver {
             }
             energy.add_hessian(positions, &contacts, &mut diagonal, &mut coupling);
             friction.add_hessian(positions, &mut diagonal);
-            self.system.factorize(&diagonal, &coupling)?;
+            self.system
+                .factorize(&diagonal, &coupling, s.factor_precision)?;
             iterations += 1;
             for i in 0..n {
                 let g = -gradient[i];
@@ -326,7 +327,7 @@ impl DrapeSolver {
                 rhs[3 * i + 1] = g.y;
                 rhs[3 * i + 2] = g.z;
             }
-            self.system.solve(&mut rhs);
+            self.system.solve(&mut rhs)?;
             let longest = (0..n)
                 .map(|i| Vec3::new(rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]).norm())
                 .fold(0.0, Real::max);

@@ -33,7 +33,7 @@ pub use dataset_generator::{
     generate_dataset,
 };
 pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
-pub use drape_settings::DrapeSettings;
+pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
 pub use garment_drape::{
@@ -42,7 +42,7 @@ pub use garment_drape::{
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, Manifest, MaterialEntry, SampleRecord,
-    SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
+    SampleStats, SmoothingInfo, TemplateInfo, manifest_path, sample_stem,
 };
 pub use motion::{
     MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,

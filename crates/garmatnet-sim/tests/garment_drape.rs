@@ -7,8 +7,8 @@ use garmatnet_core::{
     SpringKind, Vec3,
 };
 use garmatnet_sim::{
-    DrapeSettings, MotionGenerator, SequenceSettings, cloth_from_garment, drape_sequence,
-    extreme_poses,
+    DrapeSettings, FactorPrecision, MotionGenerator, SequenceSettings, cloth_from_garment,
+    drape_sequence, extreme_poses,
 };
 
 fn coarse() -> (CapsuleBody, Garment) {
@@ -211,6 +211,36 @@ fn coarse_shirt_hangs_on_the_rest_body_and_converges_at_every_pose() {
 }
 
 #[test]
+fn mixed_precision_walks_the_coarse_shirt_to_the_same_drapes() {
+    // Single-precision factors with double-precision refinement: every pose converges, and
+    // the drapes land where the double-precision walk puts them, within a micrometre (on
+    // these three frames; longer walks of finer shirts drift apart, README).
+    let (body, garment) = coarse();
+    let m = Material::preset("Cotton Poplin").unwrap();
+    let poses = MotionGenerator::new(3, 3).generate();
+    let walk = |precision: FactorPrecision| {
+        let mut settings = SequenceSettings::default();
+        settings.drape.factor_precision = precision;
+        let mut drapes = Vec::new();
+        drape_sequence(&garment, &body, &m, &poses, &settings, None, |_, x, s| {
+            assert!(s.converged, "{precision:?}: {s:?}");
+            drapes.push(x.to_vec());
+            Ok(())
+        })
+        .unwrap();
+        drapes
+    };
+    let (double, mixed) = (walk(FactorPrecision::Double), walk(FactorPrecision::Mixed));
+    for (frame, (a, b)) in double.iter().zip(&mixed).enumerate() {
+        let mean = a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<Real>() / a.len() as Real;
+        assert!(
+            mean < 1e-6,
+            "frame {frame}: drapes {mean} m apart on average"
+        );
+    }
+}
+
+#[test]
 fn a_resumed_sequence_continues_bit_identically() {
     let (body, garment) = coarse();
     let m =
@@ -272,6 +302,16 @@ fn manifests_that_predate_a_setting_read_it_as_the_walk_was_made() {
     assert!(defaults.drape.step_expansion > 1.0);
     assert_eq!(read.drape.step_expansion, 1.0);
     assert_eq!(read.drape.friction, defaults.drape.friction);
+    // Written before the factor's precision was a setting: it reads as double precision,
+    // the only one there was.
+    let mut before = serde_json::to_value(&defaults).unwrap();
+    before["drape"]
+        .as_object_mut()
+        .unwrap()
+        .remove("factor_precision");
+    let read = SequenceSettings::from_manifest(&before).unwrap();
+    assert_eq!(read.drape.factor_precision, FactorPrecision::Double);
+    assert_eq!(read.drape.step_expansion, defaults.drape.step_expansion);
     // Written now: read back as written.
     let now = serde_json::to_value(&defaults).unwrap();
     assert_eq!(SequenceSettings::from_manifest(&now).unwrap(), defaults);
