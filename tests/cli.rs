@@ -366,6 +366,61 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
 }
 
 #[test]
+fn simulate_resumes_a_dataset_with_the_solver_settings_it_was_made_with() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let out = dir.path().join("d");
+    let simulate = |solver: Option<&std::path::Path>| -> anyhow::Result<std::process::Output> {
+        let mut cmd = garmatnet();
+        cmd.args(["simulate", "--materials", "Cotton Poplin", "--poses", "2"])
+            .args(["--resolution", "coarse", "--quiet", "--out"])
+            .arg(&out);
+        if let Some(solver) = solver {
+            cmd.arg("--solver").arg(solver);
+        }
+        Ok(cmd.output()?)
+    };
+    anyhow::ensure!(simulate(Some(&quick))?.status.success(), "first run failed");
+    let manifest = || -> anyhow::Result<serde_json::Value> {
+        Ok(serde_json::from_slice(&std::fs::read(
+            out.join("manifest.json"),
+        )?)?)
+    };
+    let made_with = manifest()?["solver"].clone();
+    // As if killed before its last sample: re-running without --solver finishes it with the
+    // dataset's quick settings, not the defaults.
+    std::fs::remove_dir_all(out.join("samples/m000_p0001"))?;
+    let output = simulate(None)?;
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let resumed = manifest()?;
+    assert_eq!(resumed["solver"], made_with);
+    assert_eq!(resumed["samples"].as_array().map(Vec::len), Some(2));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("samples/m000_p0001/stats.json"))?)?;
+    assert!(
+        stats["stats"]["iterations"]
+            .as_u64()
+            .is_some_and(|i| i <= 5),
+        "{stats}"
+    );
+    // Other settings given explicitly are refused.
+    let other = dir.path().join("other.json");
+    std::fs::write(&other, r#"{"drape": {"max_iterations": 6}}"#)?;
+    let output = simulate(Some(&other))?;
+    assert!(!output.status.success());
+    assert!(
+        String::from_utf8_lossy(&output.stderr).contains("solver settings"),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    Ok(())
+}
+
+#[test]
 fn dataset_merge_joins_shards_and_completes_slim_samples() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;

@@ -10,8 +10,8 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, MotionGenerator, MotionPace,
-    SequenceSettings, Shard, generate_dataset,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, Manifest, MotionGenerator, MotionPace,
+    SequenceSettings, Shard, generate_dataset, manifest_path,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -56,6 +56,8 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "0/1")]
     pub shard: String,
     /// Solver settings as a JSON file (a `SequenceSettings`; missing fields take defaults).
+    /// Without it, a new dataset takes the defaults and an existing one in `--out` resumes
+    /// with the settings its manifest records (also those of an earlier version).
     #[arg(long)]
     pub solver: Option<PathBuf>,
     /// No progress bar.
@@ -129,6 +131,17 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                 .with_context(|| format!("reading {}", path.display()))?;
             serde_json::from_str::<SequenceSettings>(&text)
                 .with_context(|| format!("parsing {}", path.display()))?
+        }
+        None if manifest_path(&args.out).exists() => {
+            let existing = Manifest::read(&args.out).with_context(|| {
+                format!("reading the dataset to resume in {}", args.out.display())
+            })?;
+            SequenceSettings::from_manifest(&existing.spec.solver).with_context(|| {
+                format!(
+                    "the solver settings of the dataset in {}",
+                    args.out.display()
+                )
+            })?
         }
         None => SequenceSettings::default(),
     };

@@ -43,6 +43,7 @@ use std::time::{Duration, Instant};
 
 use garmatnet_core::{Error, OutputLock, Result};
 
+use crate::garment_drape::SequenceSettings;
 use crate::manifest::{
     DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
     parse_sample_stem, sample_stem,
@@ -155,11 +156,14 @@ impl DatasetWriter {
         let lock = OutputLock::acquire(dir.join(".lock"), &format!("dataset {}", dir.display()))?;
         // Compare through JSON so that floats parsed back from the manifest compare exactly.
         let spec_json = serde_json::to_value(&spec).map_err(|e| Error::io(&dir, e.into()))?;
-        let spec: DatasetSpec =
+        let mut spec: DatasetSpec =
             serde_json::from_value(spec_json).map_err(|e| Error::io(&dir, e.into()))?;
         if manifest_path(&dir).exists() {
             let existing = Manifest::read(&dir)?;
             ensure_same_spec(&existing.spec, &spec)?;
+            // The same settings may be spelt differently (a field added since, at the value
+            // it reads as): the manifest keeps its own spelling.
+            spec.solver = existing.spec.solver;
         }
         let records = scan_samples(&dir, &spec)?;
         let writer = Self {
@@ -365,7 +369,7 @@ pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Res
             ),
         ));
     }
-    if existing.solver != new.solver {
+    if !same_solver(&existing.solver, &new.solver) {
         return Err(differs(
             "solver settings",
             existing.solver.to_string(),
@@ -380,6 +384,35 @@ pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Res
         ));
     }
     Ok(())
+}
+
+/// Whether two manifests' solver settings describe the same walk: equal as written, or equal
+/// as [`SequenceSettings::from_manifest`] reads them (a manifest written before a setting
+/// existed lacks it, and reads it as the walk was made) with neither spelling out a value
+/// those settings do not hold as written (an unknown key, say).
+fn same_solver(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    if a == b {
+        return true;
+    }
+    let canonical = |v: &serde_json::Value| {
+        SequenceSettings::from_manifest(v)
+            .ok()
+            .and_then(|s| serde_json::to_value(s).ok())
+    };
+    match (canonical(a), canonical(b)) {
+        (Some(ca), Some(cb)) => ca == cb && written_in(a, &ca) && written_in(b, &cb),
+        _ => false,
+    }
+}
+
+/// Whether every value `raw` spells out is in `canonical` as written.
+fn written_in(raw: &serde_json::Value, canonical: &serde_json::Value) -> bool {
+    match (raw, canonical) {
+        (serde_json::Value::Object(r), serde_json::Value::Object(c)) => r
+            .iter()
+            .all(|(key, value)| c.get(key).is_some_and(|v| written_in(value, v))),
+        _ => raw == canonical,
+    }
 }
 
 #[cfg(test)]
@@ -506,6 +539,13 @@ pub(crate) mod tests {
             DatasetWriter::open(dir.path(), other),
             Err(Error::Mismatch { .. })
         ));
+        // Settings the solver does not know are compared as written.
+        let mut other = tiny_spec();
+        other.solver["tolerance"] = serde_json::json!(1e-7);
+        assert!(matches!(
+            DatasetWriter::open(dir.path(), other),
+            Err(Error::Mismatch { .. })
+        ));
         let mut other = tiny_spec();
         other.poses.pop();
         other.frames.pop();
@@ -514,6 +554,43 @@ pub(crate) mod tests {
             matches!(err, Error::Mismatch { .. }) && err.to_string().contains("pose 3"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_dataset_made_before_a_setting_existed_resumes_with_the_same_walk() {
+        use crate::FactorPrecision;
+        // Written before the factor's precision was a setting: no `drape.factor_precision`,
+        // which reads as double, today's default.
+        let mut before = tiny_spec();
+        before.solver = serde_json::to_value(SequenceSettings::default()).unwrap();
+        before.solver["drape"]
+            .as_object_mut()
+            .unwrap()
+            .remove("factor_precision");
+        let dir = tempfile::tempdir().unwrap();
+        drop(DatasetWriter::open(dir.path(), before.clone()).unwrap());
+        // Today's defaults spell it out, and resume; the manifest keeps its own spelling.
+        let mut today = tiny_spec();
+        today.solver = serde_json::to_value(SequenceSettings::default()).unwrap();
+        assert_ne!(today.solver, before.solver);
+        let writer = DatasetWriter::open(dir.path(), today.clone()).unwrap();
+        writer
+            .write_sample(0, 0, &arrays(0, 0), stats(0.0))
+            .unwrap();
+        writer.flush().unwrap();
+        drop(writer);
+        assert_eq!(
+            Manifest::read(dir.path()).unwrap().spec.solver,
+            before.solver
+        );
+        // Mixed precision is a different walk: refused.
+        let mut settings = SequenceSettings::default();
+        settings.drape.factor_precision = FactorPrecision::Mixed;
+        today.solver = serde_json::to_value(&settings).unwrap();
+        assert!(matches!(
+            DatasetWriter::open(dir.path(), today),
+            Err(Error::Mismatch { .. })
+        ));
     }
 
     #[test]
