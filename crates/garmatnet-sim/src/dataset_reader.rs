@@ -378,14 +378,15 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     let max_stretch = springs
         .is_some()
         .then(|| Summary::of(stretch.iter().map(|s| s.1)));
-    if springs.is_none() {
-        stretch = reader
+    let strains = match springs {
+        Some(_) => stretch,
+        None => reader
             .samples()
             .iter()
             .map(|r| (r.stem.clone(), r.stats.max_strain))
-            .collect();
-    }
-    let mut over_stretched: Vec<(String, f64)> = stretch
+            .collect(),
+    };
+    let mut over_stretched: Vec<(String, f64)> = strains
         .into_iter()
         .filter(|(_, strain)| *strain > OVER_STRETCH)
         .collect();
