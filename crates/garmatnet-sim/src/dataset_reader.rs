@@ -3,11 +3,11 @@
 
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 
-use garmatnet_core::{CapsuleBody, Error, Garment, Resolution, Result, Spring, SpringKind};
+use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::{samples_dir, scan_samples};
+use crate::dataset_generator::SampleDeriver;
 use crate::manifest::{DatasetSpec, Manifest, SampleRecord};
 use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
 
@@ -187,8 +187,9 @@ pub struct DatasetReport {
     /// only stretch).
     pub max_strain: Summary,
     /// Largest stretch of each drape, measured from its `simulated` array on the springs that
-    /// carry stretch (structural warp and weft, shear); `None` when the dataset's template is
-    /// not this build's T-shirt, so its springs are unknown here.
+    /// carry stretch (structural warp and weft, shear); `None` when this build cannot rebuild
+    /// the dataset's template (another version's T-shirt, body or smoothing), so its springs
+    /// are unknown here.
     pub max_stretch: Option<Summary>,
     /// Newton iterations of each sample's final converge.
     pub iterations: Summary,
@@ -221,19 +222,19 @@ fn carries_stretch(kind: SpringKind) -> bool {
 }
 
 /// This build's springs of the dataset's template that carry stretch, or `None` when the
-/// template (resolution, vertex count, hash) is not this build's T-shirt.
+/// dataset's template, body or smoothing is not one this build reproduces
+/// ([`SampleDeriver::for_spec`] refuses it).
 fn stretch_springs(spec: &DatasetSpec) -> Option<Vec<Spring>> {
-    let resolution = Resolution::from_str(&spec.template.resolution).ok()?;
-    let garment = Garment::tshirt(resolution, &CapsuleBody::smpl_neutral()).ok()?;
-    let same = format!("{:016x}", garment.template_hash()) == spec.template.hash
-        && garment.vertex_count() == spec.template.vertex_count;
-    same.then(|| {
-        garment
+    let deriver = SampleDeriver::for_spec(spec).ok()?;
+    Some(
+        deriver
+            .garment()
             .springs
-            .into_iter()
+            .iter()
             .filter(|s| carries_stretch(s.kind) && s.rest_length > 0.0)
-            .collect()
-    })
+            .copied()
+            .collect(),
+    )
 }
 
 /// The largest strain over `springs` of the drape `x` (0 with no springs).
@@ -416,6 +417,7 @@ mod tests {
     use crate::dataset::tests::{VERTICES, arrays, stats, tiny_spec};
     use crate::sample_arrays::SampleArrays;
     use crate::sample_arrays::write_points_npy;
+    use garmatnet_core::{CapsuleBody, Garment, Resolution};
     use npyz::WriterBuilder;
 
     fn full_dataset(dir: &Path) {
