@@ -353,7 +353,9 @@ fn bounding_box(capsules: &[PreparedCapsule], k: Real) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pose::JointLimits;
     use crate::rng::SplitMix64;
+    use crate::sdf::PUSH_SLACK;
     use crate::skeleton::joint_index;
     use approx::assert_relative_eq;
     use std::collections::HashMap;
@@ -690,6 +692,78 @@ mod tests {
             mean_error < 0.004,
             "mean |d| of the skinned mesh {mean_error}"
         );
+    }
+
+    /// Two parallel limbs 5 mm apart, blended: the crevice between them is inside the body
+    /// and the union's gradient vanishes on its mid-plane.
+    fn crevice() -> CapsuleBody {
+        let limb = |x: Real| Capsule {
+            joint: 0,
+            a: Vec3::new(x, -0.3, 0.0),
+            b: Vec3::new(x, 0.3, 0.0),
+            radius_a: 0.1,
+            radius_b: 0.1,
+        };
+        CapsuleBody::new(
+            Skeleton::smpl_neutral(),
+            vec![limb(-0.1025), limb(0.1025)],
+            0.03,
+        )
+        .unwrap()
+    }
+
+    /// `q`, pushed out from `p`, is at least `clearance` out and at most [`PUSH_SLACK`] past
+    /// it, or `p` itself when `p` was already clear.
+    fn assert_pushed_out(body: &dyn SignedDistance, p: &Vec3, q: &Vec3, clearance: Real) {
+        let d = body.distance(q);
+        if body.distance(p) >= clearance {
+            assert_eq!(p, q, "a point already clear stays");
+        } else {
+            assert!(
+                d >= clearance - 1e-9,
+                "{p:?} ended {d} m out, inside the clearance"
+            );
+            assert!(d <= clearance + PUSH_SLACK, "{p:?} was flung {d} m out");
+        }
+    }
+
+    #[test]
+    fn push_outside_climbs_out_of_a_crevice_where_the_gradient_vanishes() {
+        let body = crevice();
+        let (d, g) = body.distance_and_gradient(&Vec3::zeros());
+        assert!(
+            d < 0.0 && g.norm() < 1e-12,
+            "the set-up: inside, flat ({d}, {g:?})"
+        );
+        let clearance = 0.002;
+        // Off the line z = 0, where the field is flat in z and no gradient method can escape.
+        for z in [1e-3, 0.01, 0.05, 0.09] {
+            for x in [0.0, 0.001, -0.002] {
+                let p = Vec3::new(x, 0.1, z);
+                let q = body.push_outside(&p, clearance);
+                assert_pushed_out(&body, &p, &q, clearance);
+            }
+        }
+    }
+
+    #[test]
+    fn push_outside_reaches_the_clearance_around_posed_bodies() {
+        let limits = JointLimits::default();
+        let mut rng = SplitMix64::new(6);
+        let clearance = 0.002;
+        let mut count = 0;
+        for _ in 0..3 {
+            let posed = body().pose(&limits.sample(&mut rng, 1.0));
+            let mesh = posed.mesh();
+            for v in mesh.vertices.iter().step_by(3) {
+                let n = posed.distance_and_normal(v).1;
+                let p = v - n * rng.uniform(0.0, 0.06);
+                let q = posed.push_outside(&p, clearance);
+                assert_pushed_out(&posed, &p, &q, clearance);
+                count += 1;
+            }
+        }
+        assert!(count > 3000, "{count} points");
     }
 
     #[test]

@@ -51,7 +51,7 @@ pub use mesh::{Aabb, Adjacency, TriMesh};
 pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use pose_file::{read_poses, write_poses_json};
 pub use rng::SplitMix64;
-pub use sdf::{SignedDistance, SkinnedBody, Sphere, unit_normal};
+pub use sdf::{PUSH_SLACK, SignedDistance, SkinnedBody, Sphere, unit_normal};
 pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
 pub use smpl_capsules::smpl_neutral_capsules;
 pub use spring::{Spring, SpringKind};

@@ -50,27 +50,43 @@ pub trait SignedDistance: Sync {
     }
 
     /// `p` moved along the normal until it is at least `clearance` metres outside the
-    /// surface; points already that far out are returned unchanged (the same iteration as
-    /// [`SignedDistance::project`], for the same reason).
+    /// surface; points already that far out are returned unchanged.
+    ///
+    /// Each step is a Newton step along the normal, the remaining gap divided by the
+    /// gradient's length, capped at the gap plus [`PUSH_SLACK`]. A true distance field
+    /// needs one step. In a smooth union's blend regions the gradient is short (it vanishes
+    /// in the crevice between two limbs), and steps of the gap alone crawl: they could leave
+    /// a point inside the clearance after any fixed number of steps. The cap keeps a point
+    /// from being flung where the gradient nearly vanishes; since a distance field changes
+    /// by at most one metre per metre, a point ends at most [`PUSH_SLACK`] past the
+    /// clearance.
     fn push_outside(&self, p: &Vec3, clearance: Real) -> Vec3 {
         let mut x = *p;
-        for _ in 0..PROJECTION_STEPS {
-            let (d, g) = self.distance_and_normal(&x);
+        for _ in 0..PUSH_STEPS {
+            let (d, g) = self.distance_and_gradient(&x);
             // A tiny slack keeps rounding from re-flagging a point just placed at the
             // clearance; a NaN distance (a broken field) leaves the point where it is.
             if d.is_nan() || d >= clearance - 1e-9 {
                 break;
             }
-            x += g * (clearance - d);
+            let gap = clearance - d;
+            let step = (gap / g.norm().max(1e-3)).min(gap + PUSH_SLACK);
+            x += unit_normal(&g) * step;
         }
         x
     }
 }
 
-/// The most Newton steps of [`SignedDistance::project`] and [`SignedDistance::push_outside`]:
-/// with the capsule union's shortest raw gradient (~0.25) 32 steps close all but 1e-3 of the
-/// gap; true distance fields need one.
+/// The most Newton steps of [`SignedDistance::project`]: where the capsule union's gradient
+/// is at least 0.2 long, 32 steps close all but 1e-3 of the gap; true distance fields need one.
 const PROJECTION_STEPS: usize = 32;
+
+/// The most steps of [`SignedDistance::push_outside`].
+const PUSH_STEPS: usize = 64;
+
+/// How far (metres) one step of [`SignedDistance::push_outside`] may go past the remaining
+/// gap, and so the most a pushed point can end past the clearance.
+pub const PUSH_SLACK: Real = 0.002;
 
 /// A rest-pose body that garments can be fitted to: a signed distance field on a skeleton,
 /// with linear-blend-skinning weights for any point near its surface.
