@@ -59,7 +59,9 @@ pub trait SignedDistance: Sync {
     /// a point inside the clearance after any fixed number of steps. The cap keeps a point
     /// from being flung where the gradient nearly vanishes; since a distance field changes
     /// by at most one metre per metre, a point ends at most [`PUSH_SLACK`] past the
-    /// clearance.
+    /// clearance. Where the gradient is exactly zero (the very mid-line of a crevice) the
+    /// step goes along `+y`, which need not lead out: only such a point can come back still
+    /// inside the clearance, after 64 steps.
     fn push_outside(&self, p: &Vec3, clearance: Real) -> Vec3 {
         let mut x = *p;
         for _ in 0..PUSH_STEPS {
