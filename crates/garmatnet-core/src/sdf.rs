@@ -72,6 +72,7 @@ pub trait SignedDistance: Sync {
                 break;
             }
             let gap = clearance - d;
+            // The floor only keeps the division finite; the cap bounds the step.
             let step = (gap / g.norm().max(1e-3)).min(gap + PUSH_SLACK);
             x += unit_normal(&g) * step;
         }

@@ -84,7 +84,8 @@ impl FrictionContact {
     }
 }
 
-/// Moves every vertex found inside the collider onto its surface, so that the reported
+/// Moves every vertex found inside the collider onto its surface (in a blend region of a
+/// smooth union, up to [`garmatnet_core::PUSH_SLACK`] past it), so that the reported
 /// penetration is what the penalty left behind, not hidden by it. Returns the largest
 /// penetration depth (metres) remaining afterwards, measured with the collider itself.
 pub(crate) fn push_out(
