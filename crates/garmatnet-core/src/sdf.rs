@@ -61,7 +61,7 @@ pub trait SignedDistance: Sync {
     /// by at most one metre per metre, a point ends at most [`PUSH_SLACK`] past the
     /// clearance. Where the gradient is exactly zero (the very mid-line of a crevice) the
     /// step goes along `+y`, which need not lead out: only such a point can come back still
-    /// inside the clearance, after 64 steps.
+    /// inside the clearance, when the steps run out.
     fn push_outside(&self, p: &Vec3, clearance: Real) -> Vec3 {
         let mut x = *p;
         for _ in 0..PUSH_STEPS {
