@@ -80,6 +80,12 @@ pub struct TrainOptions {
     /// random 10 %: early stopping then rewards generalising to unseen fabrics.
     #[arg(long, value_delimiter = ',')]
     pub dev_materials: Option<Vec<String>>,
+    /// Hold out, as the development set, every training fabric at the frames f with
+    /// f % EVERY == OFFSET (EVERY from --held-out; e.g. 5 with every 10th frame held out for
+    /// test) instead of a random 10 %: early stopping then rewards generalising to unseen
+    /// poses.
+    #[arg(long, value_name = "OFFSET")]
+    pub dev_frames: Option<usize>,
     /// Leave samples whose drape did not settle (final residual above this, in vertex
     /// weights, e.g. 0.1) out of training and development; default: train on every sample.
     /// Test sets keep them.
@@ -165,6 +171,9 @@ impl TrainOptions {
         }
         if let Some(names) = &self.dev_materials {
             c.split.dev_materials = names.iter().map(|n| n.trim().to_owned()).collect();
+        }
+        if let Some(offset) = self.dev_frames {
+            c.split.dev_frame_offset = Some(offset);
         }
         if let Some(h) = &self.held_out {
             (c.split.held_out_frame_every, c.split.held_out_block) = match h[..] {

@@ -160,6 +160,10 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             .iter()
             .map(|&m| spec.materials[m].name.clone())
             .collect(),
+        dev_frames: split
+            .config
+            .dev_frame_offset
+            .map(|offset| (offset, split.config.held_out_frame_every)),
     };
 
     let fabric_lookup = fabric_lookup(&data, &split, &comparison)?;

@@ -116,6 +116,10 @@ pub struct TestParts {
     /// paper's random development fraction.
     #[serde(default)]
     pub dev_materials: Vec<String>,
+    /// The development set's frames when it holds out poses (`train --dev-frames`): their
+    /// offset and the held-out period, e.g. `(5, 10)`; `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dev_frames: Option<(usize, usize)>,
 }
 
 /// A non-learned reference on the Table 2 samples: the true drape, at the same test pose, of
@@ -264,7 +268,12 @@ impl Report {
             );
         }
         if let Some(parts) = &self.garmatnet_by_part {
-            let dev_name = if parts.dev_materials.is_empty() {
+            let dev_name = if let Some((offset, every)) = parts.dev_frames {
+                format!(
+                    "GarMatNet, development set (training fabrics at unseen poses: frames \
+                     {offset} mod {every})"
+                )
+            } else if parts.dev_materials.is_empty() {
                 "GarMatNet, development set (seen fabric and pose)".to_owned()
             } else {
                 format!(

@@ -42,6 +42,17 @@ pub struct SplitConfig {
     /// fabrics, the term that dominates the test error. Empty (default): the paper's random
     /// `dev_fraction`.
     pub dev_materials: Vec<String>,
+    /// Poses held out as the development set instead of a random fraction: every training
+    /// fabric's samples at the frames `f` with `f % held_out_frame_every == offset` are dev
+    /// samples and none is trained on, so early stopping (and any choice made on the dev
+    /// loss) rewards generalising to unseen poses — the test a model trained on every fabric
+    /// (`test_materials` empty) is judged by. With the paper's random fraction the dev poses
+    /// were trained on at other fabrics. Must name a frame that is not held out for test
+    /// (`held_out_block..held_out_frame_every`, e.g. 5 with every 10th frame held out);
+    /// exclusive with `dev_materials`. `None` (default): the paper's random `dev_fraction`.
+    /// Not written when `None`, so default runs keep their fingerprints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dev_frame_offset: Option<usize>,
     /// The seed of the train/dev shuffle.
     pub seed: u64,
     /// Samples whose drape did not settle — final normalised residual (RMS net force over
@@ -67,6 +78,7 @@ impl Default for SplitConfig {
             held_out_block: 1,
             dev_fraction: 0.1,
             dev_materials: Vec::new(),
+            dev_frame_offset: None,
             seed: 42,
             max_train_residual: None,
         }
@@ -111,6 +123,9 @@ pub struct Split {
     /// Indices of the dev materials (`config.dev_materials`), if any.
     #[serde(default)]
     pub dev_materials: Vec<usize>,
+    /// Indices of the dev poses (`config.dev_frame_offset`), if any, sorted.
+    #[serde(default)]
+    pub dev_poses: Vec<usize>,
     /// Training samples, sorted.
     pub train: Vec<SampleKey>,
     /// Development (early-stopping) samples, sorted.
@@ -142,8 +157,9 @@ impl Split {
     /// [`Error::UnknownMaterials`] for an unknown dev material;
     /// [`Error::InvalidConfig`] for a dev fraction outside (0, 1), `held_out_frame_every = 0`,
     /// a `held_out_block` outside `1..held_out_frame_every`, a dev material that is also a
-    /// target material, a `max_train_residual` that is not positive, or a split that leaves
-    /// train, dev or test empty.
+    /// target material, a `dev_frame_offset` outside `held_out_block..held_out_frame_every`
+    /// or given with dev materials, a `max_train_residual` that is not positive, or a split
+    /// that leaves train, dev or test empty.
     pub fn new(
         spec: &DatasetSpec,
         samples: &[SampleRecord],
@@ -204,6 +220,35 @@ impl Split {
                 spec.materials[m].name
             )));
         }
+        if let Some(offset) = config.dev_frame_offset {
+            if !(config.held_out_block..config.held_out_frame_every).contains(&offset) {
+                return Err(Error::InvalidConfig(format!(
+                    "split.dev_frame_offset = {offset} must lie in {}..{}: frames with \
+                     f % {} < {} are test frames",
+                    config.held_out_block,
+                    config.held_out_frame_every,
+                    config.held_out_frame_every,
+                    config.held_out_block
+                )));
+            }
+            if !dev_materials.is_empty() {
+                return Err(Error::InvalidConfig(
+                    "split.dev_frame_offset and split.dev_materials both choose the \
+                     development set; give one"
+                        .into(),
+                ));
+            }
+        }
+        let dev_poses: Vec<usize> = match config.dev_frame_offset {
+            Some(offset) => spec
+                .frames
+                .iter()
+                .enumerate()
+                .filter(|(_, f)| *f % config.held_out_frame_every == offset)
+                .map(|(p, _)| p)
+                .collect(),
+            None => Vec::new(),
+        };
         let held_out_poses: Vec<usize> = spec
             .frames
             .iter()
@@ -233,7 +278,10 @@ impl Split {
                 unsettled.len()
             )));
         }
-        let (mut train, mut dev) = if dev_materials.is_empty() {
+        let (mut train, mut dev) = if config.dev_frame_offset.is_some() {
+            rest.into_iter()
+                .partition(|k: &SampleKey| dev_poses.binary_search(&k.pose).is_err())
+        } else if dev_materials.is_empty() {
             let dev = rest.split_off(rest.len() - dev_count);
             (rest, dev)
         } else {
@@ -256,6 +304,7 @@ impl Split {
             test_materials,
             held_out_poses,
             dev_materials,
+            dev_poses,
             train,
             dev,
             test,
@@ -300,7 +349,9 @@ impl Split {
                     || self.test_materials.contains(&k.material)
                     || self.held_out_poses.binary_search(&k.pose).is_ok()
                     || (name == "train"
-                        && (dev.contains(k) || self.dev_materials.contains(&k.material)));
+                        && (dev.contains(k)
+                            || self.dev_materials.contains(&k.material)
+                            || self.dev_poses.binary_search(&k.pose).is_ok()));
                 if leak {
                     return Err(Error::Split {
                         path: path.to_owned(),
@@ -538,6 +589,55 @@ mod tests {
             Split::new(&spec, &settled(&keys), "h", &all),
             Err(Error::InvalidConfig(_))
         ));
+    }
+
+    #[test]
+    fn dev_frames_take_every_training_fabric_at_those_poses_and_nothing_else() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        let by_pose = SplitConfig {
+            test_materials: Vec::new(),
+            dev_frame_offset: Some(5),
+            ..config()
+        };
+        let split = Split::new(&spec, &settled(&keys), "h", &by_pose).unwrap();
+        // Frames 3p with 3p % 10 == 5 <=> p % 10 == 5.
+        assert_eq!(split.dev_poses, vec![5, 15, 25, 35]);
+        for k in &keys {
+            assert_eq!(split.test.contains(k), k.pose % 10 == 0, "{k:?}");
+            assert_eq!(split.dev.contains(k), k.pose % 10 == 5, "{k:?}");
+            assert_eq!(split.train.contains(k), k.pose % 5 != 0, "{k:?}");
+        }
+        split.check_no_leak(Path::new("s.json")).unwrap();
+        // A dev pose's sample in train is a leak, whatever its fabric.
+        let mut leaky = split.clone();
+        leaky.train.push(SampleKey {
+            material: 3,
+            pose: 15,
+        });
+        assert!(matches!(
+            leaky.check_no_leak(Path::new("s.json")),
+            Err(Error::Split { .. })
+        ));
+        // The split file round-trips, and a default config does not write the field.
+        let back: Split = serde_json::from_str(&serde_json::to_string(&split).unwrap()).unwrap();
+        assert_eq!(back, split);
+        let default = serde_json::to_string(&SplitConfig::default()).unwrap();
+        assert!(!default.contains("dev_frame_offset"), "{default}");
+        // A test frame cannot be a dev frame, nor can both dev rules be given.
+        for bad in [0, 10, 11] {
+            let config = SplitConfig {
+                dev_frame_offset: Some(bad),
+                ..by_pose.clone()
+            };
+            let err = Split::new(&spec, &settled(&keys), "h", &config).unwrap_err();
+            assert!(err.to_string().contains("dev_frame_offset"), "{err}");
+        }
+        let both = SplitConfig {
+            dev_materials: vec!["M2".into()],
+            ..by_pose
+        };
+        let err = Split::new(&spec, &settled(&keys), "h", &both).unwrap_err();
+        assert!(err.to_string().contains("give one"), "{err}");
     }
 
     #[test]
