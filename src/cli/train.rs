@@ -51,6 +51,10 @@ pub struct TrainOptions {
     /// Dropout probability.
     #[arg(long)]
     pub dropout: Option<f64>,
+    /// Decoupled weight decay (AdamW) per step, relative to the learning rate (e.g. 0.01);
+    /// default 0: plain Adam, as the paper trains.
+    #[arg(long)]
+    pub weight_decay: Option<f64>,
     /// Low-rank output head with this many principal components (smaller, faster model).
     #[arg(long)]
     pub rank: Option<usize>,
@@ -143,6 +147,9 @@ impl TrainOptions {
         }
         if let Some(v) = self.dropout {
             c.dropout = v;
+        }
+        if let Some(v) = self.weight_decay {
+            c.weight_decay = v;
         }
         if self.rank.is_some() {
             c.output_rank = self.rank;

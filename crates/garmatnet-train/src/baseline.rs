@@ -59,6 +59,10 @@ pub struct BaselineConfig {
     pub hidden: usize,
     /// Dropout probability.
     pub dropout: f64,
+    /// Decoupled weight decay (AdamW); `0` (default): plain Adam. Not written at its
+    /// default.
+    #[serde(skip_serializing_if = "crate::trainer::is_zero")]
+    pub weight_decay: f64,
     /// Passes over a material's training samples per epoch; `None`: match GarMatNet's
     /// training-set size (see the module docs).
     pub replicate: Option<usize>,
@@ -93,6 +97,7 @@ impl BaselineConfig {
             pose_hidden: c.pose_hidden,
             hidden: c.hidden,
             dropout: c.dropout,
+            weight_decay: c.weight_decay,
             replicate: None,
             split: c.split.clone(),
             allow_incomplete_dataset: c.allow_incomplete_dataset,
@@ -182,6 +187,7 @@ pub fn train_baseline(
     out_dir: &Path,
     config: &BaselineConfig,
 ) -> Result<BaselineManifest> {
+    crate::trainer::check_weight_decay(config.weight_decay)?;
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let keys = data.keys();
     let split = data.split(&config.split)?;
@@ -278,6 +284,7 @@ pub fn train_baseline(
                 batch_size: config.batch_size,
                 max_epochs: config.max_epochs,
                 patience,
+                weight_decay: config.weight_decay,
                 replicate,
                 seed,
             };

@@ -56,6 +56,12 @@ pub struct TrainConfig {
     pub hidden: usize,
     /// Dropout probability.
     pub dropout: f64,
+    /// Decoupled weight decay (AdamW, Loshchilov & Hutter 2019): each step shrinks every
+    /// weight by `learning_rate × weight_decay` besides Adam's update. `0` (default): plain
+    /// Adam, as the paper trains; not written at its default, so a default run's
+    /// fingerprint, and the checkpoints of runs begun before the option, stay valid.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub weight_decay: f64,
     /// Low-rank output head: the nets output `k` coefficients of a basis initialised with
     /// the principal components of the normalised training displacements (and fine-tuned
     /// with the weights). `None` (default): the full `3n`-wide output layer.
@@ -96,6 +102,7 @@ impl Default for TrainConfig {
             material_hidden: 64,
             hidden: 512,
             dropout: 0.1,
+            weight_decay: 0.0,
             output_rank: None,
             alpha: 0.5,
             scale_free_material: false,
@@ -123,6 +130,7 @@ impl TrainConfig {
                 self.learning_rate
             )));
         }
+        check_weight_decay(self.weight_decay)?;
         if self.batch_size == 0 || self.max_epochs == 0 {
             return Err(Error::InvalidConfig(
                 "batch_size and max_epochs must be positive".into(),
@@ -252,6 +260,23 @@ fn set_pca_basis(
     Ok(())
 }
 
+/// Checks a weight decay for [`TrainConfig`] and the baseline's config.
+pub(crate) fn check_weight_decay(weight_decay: f64) -> Result<()> {
+    if weight_decay.is_finite() && (0.0..1.0).contains(&weight_decay) {
+        Ok(())
+    } else {
+        Err(Error::InvalidConfig(format!(
+            "weight_decay = {weight_decay} must lie in [0, 1) (typical: 1e-4 to 1e-1)"
+        )))
+    }
+}
+
+/// Serde's test for fields left out of files at their default of zero.
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's `skip_serializing_if` passes `&T`
+pub(crate) fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 /// The split file of the model at `model_path`: `{stem}.split.json` next to it.
 #[must_use]
 pub fn split_path(model_path: &Path) -> PathBuf {
@@ -339,6 +364,7 @@ pub fn train(
         batch_size: config.batch_size,
         max_epochs: config.max_epochs,
         patience,
+        weight_decay: config.weight_decay,
         replicate: 1,
         seed: config.seed ^ (phase as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15),
     };
@@ -519,6 +545,7 @@ pub(crate) mod tests {
         assert!(json.get("learning_rate_schedule").is_none(), "{json}");
         assert!(json.get("pose_encoding").is_none(), "{json}");
         assert!(json["split"].get("max_train_residual").is_none(), "{json}");
+        assert!(json.get("weight_decay").is_none(), "{json}");
         let base = TrainConfig::default().fingerprint("d");
         let cosine = TrainConfig {
             learning_rate_schedule: LearningRateSchedule::Cosine,
@@ -533,6 +560,14 @@ pub(crate) mod tests {
         assert_ne!(cosine.fingerprint("d"), base);
         assert_ne!(filtered.fingerprint("d"), base);
         assert_ne!(rotations.fingerprint("d"), base);
+        let decayed = TrainConfig {
+            weight_decay: 0.01,
+            ..TrainConfig::default()
+        };
+        assert_ne!(decayed.fingerprint("d"), base);
+        let back: TrainConfig =
+            serde_json::from_value(serde_json::to_value(&decayed).unwrap()).unwrap();
+        assert_eq!(back, decayed);
         // Written and read back, the options survive.
         let back: TrainConfig =
             serde_json::from_value(serde_json::to_value(&cosine).unwrap()).unwrap();
@@ -591,6 +626,57 @@ pub(crate) mod tests {
         // 4 non-target materials x 18 non-held-out poses, split 90/10.
         assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
         assert_eq!(s.samples[2], 6 * 20 - 4 * 18);
+    }
+
+    /// The sum of the squares of every float parameter of `module`.
+    fn squared_norm<M: burn::module::Module>(module: &M) -> f64 {
+        struct Sum(f64);
+        impl burn::module::ModuleVisitor for Sum {
+            fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
+                let sq = param.val().powf_scalar(2.0).sum().into_scalar::<f32>();
+                self.0 += f64::from(sq);
+            }
+        }
+        let mut sum = Sum(0.0);
+        module.visit(&mut sum);
+        sum.0
+    }
+
+    #[test]
+    fn weight_decay_shrinks_the_weights_and_still_learns() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let norm = |weight_decay: f64| {
+            let path = dir.path().join(format!("wd{weight_decay}.safetensors"));
+            let config = TrainConfig {
+                weight_decay,
+                ..tiny_config(25)
+            };
+            let s = train(&data, &path, &config, &RunOptions::default()).unwrap();
+            eprintln!(
+                "weight decay {weight_decay}: dev MSE {:?} / {:?}",
+                s.fitting.as_ref().map(|n| n.best_dev_mse),
+                s.local.as_ref().map(|n| n.best_dev_mse)
+            );
+            assert_both_nets_learned(&s);
+            let model = GarMatNetModel::load(&path, &Device::flex()).unwrap();
+            squared_norm(&model.fitting) + squared_norm(&model.local)
+        };
+        let (plain, decayed) = (norm(0.0), norm(0.5));
+        assert!(
+            decayed < 0.95 * plain,
+            "weight decay 0.5 left the squared weight norm at {decayed}, plain Adam {plain}"
+        );
+        for bad in [-0.1, 1.0, f64::NAN] {
+            let config = TrainConfig {
+                weight_decay: bad,
+                ..tiny_config(1)
+            };
+            let err = config.validate().unwrap_err();
+            assert!(err.to_string().contains("weight_decay"), "{err}");
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use burn::module::Module;
 use burn::nn::loss::{MseLoss, Reduction};
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::optim::{AdamConfig, AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
 use garmatnet_core::{POSE_DIM, SplitMix64};
 use garmatnet_model::{BaselineNet, GarMatNet, MATERIAL_DIM, OutputNormalizer};
@@ -260,6 +260,8 @@ pub(crate) struct LoopSettings {
     pub(crate) batch_size: usize,
     pub(crate) max_epochs: usize,
     pub(crate) patience: usize,
+    /// Decoupled weight decay: `0` is plain Adam, above it AdamW.
+    pub(crate) weight_decay: f64,
     /// Passes over the training samples per epoch (the baseline's replication).
     pub(crate) replicate: usize,
     pub(crate) seed: u64,
@@ -305,7 +307,14 @@ pub(crate) fn fit_net<M: Trainable>(
     progress: &ProgressBar,
 ) -> Result<Outcome<M>> {
     let device = sets.train.poses.device();
-    let mut optimizer: ModuleOptimizer = AdamConfig::new().init();
+    let mut optimizer: ModuleOptimizer = if settings.weight_decay > 0.0 {
+        #[allow(clippy::cast_possible_truncation)]
+        AdamWConfig::new()
+            .with_weight_decay(settings.weight_decay as f32)
+            .init()
+    } else {
+        AdamConfig::new().init()
+    };
     let mut net = net;
     let mut best = net.clone();
     let mut state = match checkpoint.as_mut() {
@@ -496,6 +505,7 @@ mod tests {
             batch_size: 32,
             max_epochs: 3,
             patience: 100,
+            weight_decay: 0.0,
             replicate: 1,
             seed: 1,
         };
