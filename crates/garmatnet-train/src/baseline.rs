@@ -225,10 +225,26 @@ pub fn train_baseline(
                 own.len()
             )));
         }
-        SplitMix64::new(config.split.seed ^ m as u64).shuffle(&mut own);
-        let dev_count = ((own.len() as f64 * config.split.dev_fraction).round() as usize).max(1);
-        let mut dev = own.split_off(own.len() - dev_count);
-        let mut train = own;
+        // The development samples: the material's own at the split's development poses
+        // (`--dev-frames`), else a seeded random fraction of them.
+        let (mut train, mut dev): (Vec<SampleKey>, Vec<SampleKey>) = if split.dev_poses.is_empty() {
+            SplitMix64::new(config.split.seed ^ m as u64).shuffle(&mut own);
+            let dev_count =
+                ((own.len() as f64 * config.split.dev_fraction).round() as usize).max(1);
+            let dev = own.split_off(own.len() - dev_count);
+            (own, dev)
+        } else {
+            own.into_iter()
+                .partition(|k| split.dev_poses.binary_search(&k.pose).is_err())
+        };
+        if train.is_empty() || dev.is_empty() {
+            return Err(Error::InvalidConfig(format!(
+                "baseline material `{name}` has {} training and {} development samples; \
+                 both need at least one",
+                train.len(),
+                dev.len()
+            )));
+        }
         train.sort();
         dev.sort();
         let test_count = keys
@@ -422,4 +438,37 @@ fn write_net(path: &Path, net: &BaselineNet) -> Result<()> {
     garmatnet_core::write_bytes_atomic(path, &bytes)?;
     crate::report::make_readable(path);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{synthetic_dataset, training_lock};
+    use crate::trainer::tests::tiny_config;
+
+    #[test]
+    fn the_baseline_takes_its_development_samples_at_the_dev_frames() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 4, 20);
+        let mut config = BaselineConfig {
+            max_epochs: 1,
+            ..BaselineConfig::from_train_config(&tiny_config(1))
+        };
+        // Every 5th frame tested: 16 own poses per target, 2 of them (10 %) random dev.
+        config.split.held_out_frame_every = 5;
+        let random = train_baseline(&data, &dir.path().join("random"), &config).unwrap();
+        assert!(
+            random.materials.iter().all(|m| m.samples == [14, 2, 4]),
+            "{random:?}"
+        );
+        // Frames 3, 8, 13, 18 are the development poses: 4 of each target's 16.
+        config.split.dev_frame_offset = Some(3);
+        let by_pose = train_baseline(&data, &dir.path().join("poses"), &config).unwrap();
+        assert!(
+            by_pose.materials.iter().all(|m| m.samples == [12, 4, 4]),
+            "{by_pose:?}"
+        );
+    }
 }
