@@ -239,23 +239,17 @@ impl Split {
                 ));
             }
         }
-        let dev_poses: Vec<usize> = match config.dev_frame_offset {
-            Some(offset) => spec
-                .frames
-                .iter()
-                .enumerate()
-                .filter(|(_, f)| *f % config.held_out_frame_every == offset)
-                .map(|(p, _)| p)
-                .collect(),
+        // The poses whose frame's phase in the held-out period passes `keep`, sorted.
+        let poses_where = |keep: &dyn Fn(usize) -> bool| -> Vec<usize> {
+            (0..spec.frames.len())
+                .filter(|&p| keep(spec.frames[p] % config.held_out_frame_every))
+                .collect()
+        };
+        let dev_poses = match config.dev_frame_offset {
+            Some(offset) => poses_where(&|phase| phase == offset),
             None => Vec::new(),
         };
-        let held_out_poses: Vec<usize> = spec
-            .frames
-            .iter()
-            .enumerate()
-            .filter(|(_, f)| *f % config.held_out_frame_every < config.held_out_block)
-            .map(|(p, _)| p)
-            .collect();
+        let held_out_poses = poses_where(&|phase| phase < config.held_out_block);
         let is_test = |k: &SampleKey| {
             test_materials.contains(&k.material) || held_out_poses.binary_search(&k.pose).is_ok()
         };
