@@ -33,6 +33,8 @@ enum Command {
     Train(cli::train::TrainArgs),
     /// Train the TailorNet-style baseline (one pose-only model per target material).
     TrainBaseline(cli::train::TrainBaselineArgs),
+    /// Average models trained with different seeds into one (an ensemble in one model file).
+    Ensemble(cli::ensemble::EnsembleArgs),
     /// Evaluate a model on its held-out split and write the report.
     Eval(cli::eval::EvalArgs),
     /// Run time against error: the simulator at several budgets, GarMatNet variants and
@@ -56,6 +58,7 @@ fn main() -> anyhow::Result<()> {
         Command::Dataset(command) => cli::dataset::run(command),
         Command::Train(args) => cli::train::run_train(args),
         Command::TrainBaseline(args) => cli::train::run_train_baseline(args),
+        Command::Ensemble(args) => cli::ensemble::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::SweepAlpha(args) => cli::train::run_sweep_alpha(args),
         Command::Bench(args) => cli::bench::run(args),

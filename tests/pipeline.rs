@@ -190,6 +190,66 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         }
     }
     assert_eq!(settled["test"], plain["test"]);
+
+    // An ensemble: a second seed of the same recipe, averaged with the first into one model
+    // that evaluates like any other and carries their common split. Members trained on
+    // different splits are refused, and nothing is written.
+    garmatnet(
+        &[
+            &["train", "--out", "seed7.safetensors", "--seed", "7"][..],
+            &small,
+        ]
+        .concat(),
+        dir,
+    )?;
+    assert_eq!(read_split("seed7.split.json")?, plain);
+    let made = garmatnet(
+        &[
+            "ensemble",
+            "--out",
+            "ensemble.safetensors",
+            "model.safetensors",
+            "seed7.safetensors",
+        ],
+        dir,
+    )?;
+    assert!(made.contains("2 members"), "{made}");
+    assert_eq!(read_split("ensemble.split.json")?, plain);
+    assert_eq!(header("ensemble.safetensors")?["fitting"]["hidden"], 32);
+    garmatnet(
+        &[
+            "eval",
+            "--data",
+            "data",
+            "--model",
+            "ensemble.safetensors",
+            "--report",
+            "ensemble-report",
+            "--no-figures",
+        ],
+        dir,
+    )?;
+    let ensemble_report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("ensemble-report/report.json"))?)?;
+    let whole = ensemble_report["garmatnet"]["whole_mm"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    assert!(whole.is_finite() && whole > 0.0, "{ensemble_report}");
+    let mixed = garmatnet(
+        &[
+            "ensemble",
+            "--out",
+            "mixed.safetensors",
+            "model.safetensors",
+            "settled.safetensors",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(mixed.contains("different splits"), "{mixed}");
+    assert!(!dir.join("mixed.safetensors").exists());
+
     let bad = garmatnet(
         &[
             &["train", "--out", "bad.safetensors", "--lr-schedule", "step"][..],

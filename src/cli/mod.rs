@@ -4,6 +4,7 @@ pub mod bench;
 pub mod body;
 pub mod dataset;
 pub mod drape;
+pub mod ensemble;
 pub mod eval;
 pub mod materials;
 pub mod simulate;

@@ -23,7 +23,9 @@ pub struct TrainOptions {
     /// Compute device: cpu, gpu (build with --features wgpu) or auto.
     #[arg(long)]
     pub device: Option<String>,
-    /// Seed of the weights, the split and the shuffles.
+    /// Seed of the weights, dropout and the batch shuffles. The train/development split has
+    /// its own seed (`split.seed` in `--config`, default 42), so models trained with
+    /// different `--seed` share one split and can be averaged (`garmatnet ensemble`).
     #[arg(long)]
     pub seed: Option<u64>,
     /// Adam's learning rate (at the first epoch).

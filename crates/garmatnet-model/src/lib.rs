@@ -4,6 +4,8 @@
 //!   the locally-detailed net. [`BaselineNet`]: the TailorNet-style comparison (no material).
 //! - [`GarMatNetModel`]: both nets, their [`OutputNormalizer`]s and metadata, saved as one
 //!   self-describing `.safetensors` file.
+//! - [`GarMatNetModel::average`] ([`ensemble`]): several trained models averaged into one
+//!   wider model of the same architecture and file format.
 //! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out()`] keeps
 //!   garments outside the body.
 //!
@@ -26,6 +28,7 @@
 pub mod baseline_net;
 pub mod default_model;
 pub mod device;
+pub mod ensemble;
 pub mod error;
 pub mod garmatnet_net;
 pub mod material_range;

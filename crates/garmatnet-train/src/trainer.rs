@@ -31,7 +31,8 @@ use crate::training_loop::{
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrainConfig {
-    /// Seed of the weights, the split's shuffle and the epoch shuffles.
+    /// Seed of the weights, dropout and the epoch shuffles (the split has its own,
+    /// [`SplitConfig::seed`]).
     pub seed: u64,
     /// Adam's learning rate (at the first epoch).
     pub learning_rate: f64,

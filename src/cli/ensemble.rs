@@ -1,0 +1,89 @@
+//! `garmatnet ensemble`: several trained models averaged into one model file.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use garmatnet::model::{GarMatNetModel, select_device};
+use garmatnet::train::{Split, split_path};
+
+/// Average models trained with different seeds into one model (the mean of their
+/// predictions; one wider net of the same architecture and file format).
+#[derive(Debug, Args)]
+pub struct EnsembleArgs {
+    /// The member models (two or more `.safetensors` files from `garmatnet train` with the
+    /// same data and options except `--seed`).
+    #[arg(required = true, num_args = 2..)]
+    pub models: Vec<PathBuf>,
+    /// The model file to write; the members' common split file is written next to it.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs the command.
+pub fn run(args: &EnsembleArgs) -> Result<()> {
+    let device = select_device("cpu")?;
+    let members = args
+        .models
+        .iter()
+        .map(|p| {
+            GarMatNetModel::load(p, &device).with_context(|| format!("loading {}", p.display()))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    // Evaluation reads the split next to the model to keep its test samples out of training:
+    // the members must share one, or the ensemble's development or test set could hold
+    // samples one member trained on.
+    let dataset_hash = &members[0].meta.provenance.dataset_hash;
+    let mut split: Option<Split> = None;
+    for (i, path) in args.models.iter().enumerate() {
+        let file = split_path(path);
+        if !file.exists() {
+            if i > 0 && split.is_some() {
+                bail!(
+                    "{} has no split file ({}) but the first member has",
+                    path.display(),
+                    file.display()
+                );
+            }
+            continue;
+        }
+        if i > 0 && split.is_none() {
+            bail!(
+                "{} has a split file but the first member has none",
+                path.display()
+            );
+        }
+        let this = Split::read(&file, dataset_hash)?;
+        if let Some(first) = &split
+            && *first != this
+        {
+            bail!(
+                "{} and {} were trained on different splits, so the ensemble's held-out \
+                 samples would include some a member trained on; train the members with the \
+                 same split options (`--seed` changes only the weights and shuffles)",
+                split_path(&args.models[0]).display(),
+                file.display()
+            );
+        }
+        split = Some(this);
+    }
+    let mut model = GarMatNetModel::average(&members, &device)?;
+    model.meta.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
+    model.save(&args.out)?;
+    if let Some(split) = split {
+        split.write(&split_path(&args.out))?;
+    }
+    let size = std::fs::metadata(&args.out).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "wrote {} ({} members, {:.1} MB){}",
+        args.out.display(),
+        members.len(),
+        size as f64 / 1e6,
+        if split_path(&args.out).exists() {
+            format!(" and {}", split_path(&args.out).display())
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
+}
