@@ -70,20 +70,27 @@ pub fn run(args: &EnsembleArgs) -> Result<()> {
     let mut model = GarMatNetModel::average(&members, &device)?;
     model.meta.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
     model.save(&args.out)?;
-    if let Some(split) = split {
-        split.write(&split_path(&args.out))?;
-    }
+    let out_split = split_path(&args.out);
+    let split_note = match split {
+        Some(split) => {
+            split.write(&out_split)?;
+            format!(" and {}", out_split.display())
+        }
+        None => {
+            // A split file left by the model this one replaces would describe other nets.
+            if out_split.exists() {
+                std::fs::remove_file(&out_split)
+                    .with_context(|| format!("removing the stale {}", out_split.display()))?;
+            }
+            " (the members have no split file, so neither has the ensemble)".to_owned()
+        }
+    };
     let size = std::fs::metadata(&args.out).map(|m| m.len()).unwrap_or(0);
     println!(
-        "wrote {} ({} members, {:.1} MB){}",
+        "wrote {} ({} members, {:.1} MB){split_note}",
         args.out.display(),
         members.len(),
         size as f64 / 1e6,
-        if split_path(&args.out).exists() {
-            format!(" and {}", split_path(&args.out).display())
-        } else {
-            String::new()
-        }
     );
     Ok(())
 }
