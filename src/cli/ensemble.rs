@@ -34,39 +34,27 @@ pub fn run(args: &EnsembleArgs) -> Result<()> {
     // the members must share one, or the ensemble's development or test set could hold
     // samples one member trained on.
     let dataset_hash = &members[0].meta.provenance.dataset_hash;
-    let mut split: Option<Split> = None;
-    for (i, path) in args.models.iter().enumerate() {
-        let file = split_path(path);
-        if !file.exists() {
-            if i > 0 && split.is_some() {
-                bail!(
-                    "{} has no split file ({}) but the first member has",
-                    path.display(),
-                    file.display()
-                );
-            }
-            continue;
-        }
-        if i > 0 && split.is_none() {
-            bail!(
-                "{} has a split file but the first member has none",
-                path.display()
-            );
-        }
-        let this = Split::read(&file, dataset_hash)?;
-        if let Some(first) = &split
-            && *first != this
-        {
-            bail!(
-                "{} and {} were trained on different splits, so the ensemble's held-out \
-                 samples would include some a member trained on; train the members with the \
-                 same split options (`--seed` changes only the weights and shuffles)",
-                split_path(&args.models[0]).display(),
-                file.display()
-            );
-        }
-        split = Some(this);
+    let splits = args
+        .models
+        .iter()
+        .map(|path| {
+            let file = split_path(path);
+            file.exists()
+                .then(|| Split::read(&file, dataset_hash))
+                .transpose()
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(i) = splits.iter().position(|s| *s != splits[0]) {
+        bail!(
+            "{} and {} were trained on different splits (or only one has a split file), so \
+             the ensemble's held-out samples could include some a member trained on; train \
+             the members with the same split options (`--seed` changes only the weights and \
+             shuffles)",
+            args.models[0].display(),
+            args.models[i].display()
+        );
     }
+    let split = splits.into_iter().next().flatten();
     let mut model = GarMatNetModel::average(&members, &device)?;
     model.meta.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
     model.save(&args.out)?;

@@ -68,6 +68,18 @@ impl Assembly {
         self.values[start..start + source.len()].copy_from_slice(source);
     }
 
+    /// Copies `source ⊙ scale` into row `to`, starting at column `col`.
+    fn put_scaled_row(&mut self, to: usize, col: usize, source: &[f32], scale: &[f32]) {
+        let start = to * self.cols + col;
+        for ((out, v), s) in self.values[start..start + source.len()]
+            .iter_mut()
+            .zip(source)
+            .zip(scale)
+        {
+            *out = v * s;
+        }
+    }
+
     fn into_param(self, device: &Device) -> Param<Tensor<2>> {
         Param::from_tensor(matrix(self.values, self.rows, self.cols, device))
     }
@@ -87,54 +99,37 @@ fn linear(weight: Assembly, bias: Vec<f32>, device: &Device) -> Linear {
     }
 }
 
-/// Checks that `other` can be averaged with `first`: everything but the widths must agree.
+/// Checks that `other` can be averaged with `first`: everything but the widths and ranks
+/// must agree.
 fn ensure_compatible(first: &GarMatNetConfig, other: &GarMatNetConfig, what: &str) -> Result<()> {
-    let mismatch = |field: &str, a: String, b: String| {
-        Err(Error::InvalidConfig(format!(
+    let describe = |c: &GarMatNetConfig| {
+        [
+            ("vertex_count", c.vertex_count.to_string()),
+            ("alpha", c.alpha.to_string()),
+            ("displacement_frame", format!("{:?}", c.displacement_frame)),
+            ("scale_free_material", c.scale_free_material.to_string()),
+            ("pose_encoding", format!("{:?}", c.pose_encoding)),
+            (
+                "output head",
+                match c.output_rank {
+                    Some(_) => "a low-rank output head".to_owned(),
+                    None => "a full-width output layer".to_owned(),
+                },
+            ),
+        ]
+    };
+    let differing = describe(first)
+        .into_iter()
+        .zip(describe(other))
+        .find(|((_, a), (_, b))| a != b);
+    match differing {
+        Some(((field, a), (_, b))) => Err(Error::InvalidConfig(format!(
             "cannot average these models: the {what} nets differ in {field} ({a} in the first \
              model, {b} in another); ensemble members must be trained with the same options \
              except --seed (and, if you like, the hidden sizes and rank)"
-        )))
-    };
-    if first.vertex_count != other.vertex_count {
-        return mismatch(
-            "vertex_count",
-            first.vertex_count.to_string(),
-            other.vertex_count.to_string(),
-        );
+        ))),
+        None => Ok(()),
     }
-    if first.alpha.to_bits() != other.alpha.to_bits() {
-        return mismatch("alpha", first.alpha.to_string(), other.alpha.to_string());
-    }
-    if first.displacement_frame != other.displacement_frame {
-        return mismatch(
-            "displacement_frame",
-            format!("{:?}", first.displacement_frame),
-            format!("{:?}", other.displacement_frame),
-        );
-    }
-    if first.scale_free_material != other.scale_free_material {
-        return mismatch(
-            "scale_free_material",
-            first.scale_free_material.to_string(),
-            other.scale_free_material.to_string(),
-        );
-    }
-    if first.pose_encoding != other.pose_encoding {
-        return mismatch(
-            "pose_encoding",
-            format!("{:?}", first.pose_encoding),
-            format!("{:?}", other.pose_encoding),
-        );
-    }
-    if first.output_rank.is_some() != other.output_rank.is_some() {
-        let head = |c: &GarMatNetConfig| match c.output_rank {
-            Some(k) => format!("a rank-{k} output head"),
-            None => "a full-width output layer".to_owned(),
-        };
-        return mismatch("output head", head(first), head(other));
-    }
-    Ok(())
 }
 
 /// The mean of `nets`' de-normalised outputs, as one net whose output is normalised by
@@ -173,6 +168,7 @@ fn average_nets(
                 .collect()
         })
         .collect();
+    // The offsets of every member, summed in f64: the ensemble's basis mean or output bias.
     let mut offset = vec![0.0f64; out_dim];
     for (_, norm) in nets {
         for ((o, (m_k, m)), s) in offset
@@ -192,7 +188,6 @@ fn average_nets(
     let mut basis = rank.map(|r| Assembly::zeros(r, out_dim));
     let (mut pose_b, mut material_b, mut merge_b, mut output_b) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut basis_mean = offset.clone();
     let (mut p_off, mut m_off, mut h_off, mut r_off) = (0, 0, 0, 0);
     for ((net, _), col_scale) in nets.iter().zip(&scale) {
         let c = net.config();
@@ -216,47 +211,36 @@ fn average_nets(
         merge_b.extend(bias_of(&net.merge));
         let w = Dense::of(net.output.weight.val());
         let b = bias_of(&net.output);
-        match (&mut basis, &net.basis, &net.basis_mean) {
+        // What the member adds to every output before its normaliser: the basis mean of a
+        // low-rank head, the bias of a full-width one.
+        let member_offset = match (&mut basis, &net.basis, &net.basis_mean) {
             (Some(stacked), Some(member_basis), Some(member_mean)) => {
-                let r_k = c.output_rank.unwrap_or(0);
                 for r in 0..c.hidden {
                     output_w.put_row(h_off + r, r_off, w.row(r));
                 }
                 output_b.extend(b);
                 let mb = Dense::of(member_basis.val());
+                let r_k = member_basis.dims()[0];
                 for r in 0..r_k {
-                    let row: Vec<f32> = mb
-                        .row(r)
-                        .iter()
-                        .zip(col_scale)
-                        .map(|(v, s)| v * s)
-                        .collect();
-                    stacked.put_row(r_off + r, 0, &row);
-                }
-                for ((acc, m), s) in basis_mean
-                    .iter_mut()
-                    .zip(to_f32(member_mean.val()))
-                    .zip(col_scale)
-                {
-                    *acc += f64::from(m) * f64::from(*s);
+                    stacked.put_scaled_row(r_off + r, 0, mb.row(r), col_scale);
                 }
                 r_off += r_k;
+                to_f32(member_mean.val())
             }
             (None, None, None) => {
                 for r in 0..c.hidden {
-                    let row: Vec<f32> =
-                        w.row(r).iter().zip(col_scale).map(|(v, s)| v * s).collect();
-                    output_w.put_row(h_off + r, 0, &row);
+                    output_w.put_scaled_row(h_off + r, 0, w.row(r), col_scale);
                 }
-                for ((acc, v), s) in basis_mean.iter_mut().zip(b).zip(col_scale) {
-                    *acc += f64::from(v) * f64::from(*s);
-                }
+                b
             }
             _ => {
                 return Err(Error::InvalidConfig(format!(
                     "the {what} net's output head does not match its configuration"
                 )));
             }
+        };
+        for ((acc, v), s) in offset.iter_mut().zip(member_offset).zip(col_scale) {
+            *acc += f64::from(v) * f64::from(*s);
         }
         p_off += c.pose_hidden;
         m_off += c.material_hidden;
@@ -270,7 +254,7 @@ fn average_nets(
         ..first.clone()
     };
     config.validate()?;
-    let combined_offset: Vec<f32> = basis_mean.iter().map(|&v| v as f32).collect();
+    let combined_offset: Vec<f32> = offset.iter().map(|&v| v as f32).collect();
     let (output, basis, basis_mean) = match basis {
         Some(stacked) => (
             linear(output_w, output_b, device),
