@@ -366,6 +366,67 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
 }
 
 #[test]
+fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let simulate = |out: &str, materials: &str, poses: &str, reuse: Option<&str>| {
+        let mut cmd = garmatnet();
+        cmd.args([
+            "simulate",
+            "--materials",
+            materials,
+            "--random-materials",
+            "1",
+        ])
+        .args([
+            "--material-seed",
+            "5",
+            "--poses",
+            poses,
+            "--resolution",
+            "coarse",
+        ])
+        .arg("--quiet")
+        .arg("--solver")
+        .arg(&quick)
+        .arg("--out")
+        .arg(dir.path().join(out));
+        if let Some(reuse) = reuse {
+            cmd.arg("--reuse").arg(dir.path().join(reuse));
+        }
+        cmd.output()
+    };
+    let first = simulate("a", "Cotton Poplin", "1", None)?;
+    anyhow::ensure!(first.status.success(), "{first:?}");
+    let output = simulate("b", "Denim Heavy,Cotton Poplin", "1", Some("a"))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{output:?}");
+    assert!(
+        stdout.contains("wrote 1 samples (2 already done, 2 of them copied from --reuse"),
+        "{stdout}"
+    );
+    let read = |path: std::path::PathBuf| std::fs::read(path);
+    // Cotton Poplin was material 0 of `a` and is material 1 of `b`; the random fabric 1 and 2.
+    for (from, to) in [("m000_p0000", "m001_p0000"), ("m001_p0000", "m002_p0000")] {
+        assert_eq!(
+            read(
+                dir.path()
+                    .join("a/samples")
+                    .join(from)
+                    .join("simulated.npy")
+            )?,
+            read(dir.path().join("b/samples").join(to).join("simulated.npy"))?
+        );
+    }
+    // Other poses: refused, naming what differs.
+    let output = simulate("c", "Cotton Poplin", "2", Some("a"))?;
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("poses of the dataset to reuse"), "{stderr}");
+    Ok(())
+}
+
+#[test]
 fn simulate_resumes_a_dataset_with_the_solver_settings_it_was_made_with() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;

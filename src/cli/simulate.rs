@@ -60,6 +60,11 @@ pub struct SimulateArgs {
     /// with the settings its manifest records (also those of an earlier version).
     #[arg(long)]
     pub solver: Option<PathBuf>,
+    /// An existing dataset to build on (repeatable): its finished samples of the materials
+    /// listed here too (same name and ω) are copied in first, so only the rest is draped.
+    /// It must have been made with the same template, poses and solver settings.
+    #[arg(long, value_name = "DIR")]
+    pub reuse: Vec<PathBuf>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -155,6 +160,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         smoothing: SmoothingSettings::default(),
         threads: args.threads,
         shard: Shard::parse(&args.shard)?,
+        reuse: args.reuse.clone(),
     };
     let shard_materials = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
@@ -199,10 +205,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         other => other?,
     };
     println!(
-        "{}: wrote {} samples ({} already done, {} in this shard), {} not converged; {:.0} ms per sample per worker, {:.1} s in all",
+        "{}: wrote {} samples ({} already done, {} of them copied from --reuse; {} in this shard), {} not converged; {:.0} ms per sample per worker, {:.1} s in all",
         args.out.display(),
         report.written,
         report.skipped,
+        report.imported,
         report.shard_samples,
         report.not_converged,
         report.mean_sample_ms,

@@ -324,8 +324,21 @@ impl Drop for DatasetWriter {
 }
 
 pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Result<()> {
+    compare_specs(existing, new, true, &|what| {
+        format!("existing dataset's {what} (use a new directory or the same settings)")
+    })
+}
+
+/// Compares two specs field by field (the material lists only when `materials`), naming the
+/// first difference through `describe(field)`.
+pub(crate) fn compare_specs(
+    existing: &DatasetSpec,
+    new: &DatasetSpec,
+    materials: bool,
+    describe: &dyn Fn(&str) -> String,
+) -> Result<()> {
     let differs = |what: &str, expected: String, got: String| Error::Mismatch {
-        what: format!("existing dataset's {what} (use a new directory or the same settings)"),
+        what: describe(what),
         expected,
         got,
     };
@@ -350,7 +363,7 @@ pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Res
             .collect::<Vec<_>>()
             .join(", ")
     };
-    if existing.materials != new.materials {
+    if materials && existing.materials != new.materials {
         return Err(differs("materials", names(existing), names(new)));
     }
     if existing.poses != new.poses || existing.frames != new.frames {

@@ -24,6 +24,7 @@ use crate::garment_drape::{SequenceResume, SequenceSettings, drape_sequence};
 use crate::manifest::{
     BodyInfo, DatasetSpec, MaterialEntry, SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
 };
+use crate::reuse::import_samples;
 use crate::sample_arrays::{SampleArrays, read_simulated};
 use crate::shard::Shard;
 
@@ -165,6 +166,11 @@ pub struct GenerateConfig {
     pub threads: usize,
     /// This process's share of the materials.
     pub shard: Shard,
+    /// Existing datasets to build on: before anything is draped, their finished samples of
+    /// the materials this dataset also lists (same name and ω; this shard's) are copied in
+    /// ([`crate::import_samples`]), so only the rest is simulated. They must have been made
+    /// with the same template, poses and settings.
+    pub reuse: Vec<PathBuf>,
 }
 
 /// One finished sample, for progress reporting.
@@ -186,6 +192,10 @@ pub struct SampleDone {
 pub struct GenerateReport {
     /// Samples this run wrote.
     pub written: usize,
+    /// Samples copied from the datasets in [`GenerateConfig::reuse`] (not counted in
+    /// `written`; counted in `skipped`).
+    #[serde(default)]
+    pub imported: usize,
     /// Samples of this shard already on disk (skipped).
     pub skipped: usize,
     /// Samples of this shard in all.
@@ -249,6 +259,10 @@ pub fn generate_dataset(
     let deriver = SampleDeriver::new(config.resolution, config.smoothing)?;
     let (body, garment) = (deriver.body(), deriver.garment());
     let writer = DatasetWriter::open(&config.out, dataset_spec(config, garment)?)?;
+    let mut imported = 0;
+    for source in &config.reuse {
+        imported += import_samples(&writer, source, config.shard)?.imported;
+    }
     let materials: Vec<usize> = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
         .collect();
@@ -338,6 +352,7 @@ pub fn generate_dataset(
     };
     writer.flush()?;
     let mut report = GenerateReport {
+        imported,
         skipped,
         shard_samples,
         ..GenerateReport::default()

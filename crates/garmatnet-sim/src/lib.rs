@@ -21,6 +21,7 @@ pub mod manifest;
 pub mod motion;
 mod nested_dissection;
 mod newton_system;
+pub mod reuse;
 pub mod sample_arrays;
 pub mod shard;
 
@@ -47,5 +48,6 @@ pub use manifest::{
 pub use motion::{
     MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
 };
+pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;
 pub use shard::{MergeReport, Shard, merge_shards};

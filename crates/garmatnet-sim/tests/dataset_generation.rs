@@ -1,6 +1,7 @@
 //! Dataset generation end to end: a run killed mid-way resumes and finishes with the same
 //! arrays as an uninterrupted run, thread counts do not change the bytes, shards split the
-//! materials, slim shards (simulated garments only) merge into the same bytes, and the result
+//! materials, slim shards (simulated garments only) merge into the same bytes, a dataset
+//! with one more fabric built on an existing one equals one made from scratch, and the result
 //! passes `check`.
 
 use std::path::Path;
@@ -35,6 +36,7 @@ fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
         smoothing: SmoothingSettings::default(),
         threads,
         shard,
+        reuse: Vec::new(),
     }
 }
 
@@ -96,6 +98,23 @@ fn killed_runs_resume_to_the_same_dataset_and_threads_do_not_matter() -> anyhow:
 
     let report = check(&killed)?;
     assert!(report.is_ok(), "{report}");
+
+    // One more fabric, built on `whole`: its three fabrics' samples are copied (to their
+    // new indices) and only the new one is draped, to the same bytes as draping all four.
+    let more = |out: &Path, reuse: Vec<std::path::PathBuf>| -> anyhow::Result<GenerateConfig> {
+        let mut c = config(out, 1, Shard::new(0, 1)?);
+        c.materials
+            .insert(0, ("Tulle".into(), Material::preset("Tulle")?));
+        c.reuse = reuse;
+        Ok(c)
+    };
+    let fresh = tmp.path().join("fresh");
+    generate_dataset(&more(&fresh, Vec::new())?, &|_| {}, &|| false)?;
+    let built = tmp.path().join("built");
+    let report = generate_dataset(&more(&built, vec![whole.clone()])?, &|_| {}, &|| false)?;
+    assert_eq!((report.imported, report.skipped, report.written), (9, 9, 3));
+    assert_eq!(arrays(&built), arrays(&fresh));
+    assert!(check(&built)?.is_ok());
 
     // Shards split the materials and merge by copying.
     let sharded = tmp.path().join("sharded");
