@@ -121,6 +121,7 @@ mod tests {
     use super::*;
     use crate::dataset::tests::{arrays, stats, tiny_spec};
     use crate::manifest::{DatasetSpec, Manifest};
+    use std::path::PathBuf;
 
     /// `tiny_spec` with materials `fabric1, fabric2` and a new `fabric9`.
     fn extended_spec() -> DatasetSpec {
@@ -142,12 +143,19 @@ mod tests {
         }
     }
 
+    /// A finished source (`tiny_spec`, poses 0..3) in `root/src` and a writer of
+    /// [`extended_spec`] in `root/dst`.
+    fn source_and_destination() -> (tempfile::TempDir, PathBuf, DatasetWriter) {
+        let root = tempfile::tempdir().unwrap();
+        let src = root.path().join("src");
+        source(&src);
+        let w = DatasetWriter::open(root.path().join("dst"), extended_spec()).unwrap();
+        (root, src, w)
+    }
+
     #[test]
     fn shared_materials_are_copied_to_their_new_index() {
-        let root = tempfile::tempdir().unwrap();
-        let (src, dst) = (root.path().join("src"), root.path().join("dst"));
-        source(&src);
-        let w = DatasetWriter::open(&dst, extended_spec()).unwrap();
+        let (root, src, w) = source_and_destination();
         // One shared sample is done already: it must be left as it is.
         w.write_sample(0, 0, &arrays(7, 7), stats(5.0)).unwrap();
         let report = import_samples(&w, &src, Shard::ALL).unwrap();
@@ -160,6 +168,7 @@ mod tests {
             }
         );
         drop(w);
+        let dst = root.path().join("dst");
         let r = DatasetReader::open(&dst).unwrap();
         // Source fabric1 -> destination 0, fabric2 -> 1; fabric9 has nothing yet.
         for (from, to) in [(1, 0), (2, 1)] {
@@ -181,14 +190,11 @@ mod tests {
 
     #[test]
     fn a_shard_imports_only_its_materials() {
-        let root = tempfile::tempdir().unwrap();
-        let (src, dst) = (root.path().join("src"), root.path().join("dst"));
-        source(&src);
-        let w = DatasetWriter::open(&dst, extended_spec()).unwrap();
+        let (root, src, w) = source_and_destination();
         let report = import_samples(&w, &src, Shard::new(1, 2).unwrap()).unwrap();
         assert_eq!((report.shared_materials, report.imported), (1, 3));
         drop(w);
-        let r = DatasetReader::open(&dst).unwrap();
+        let r = DatasetReader::open(root.path().join("dst")).unwrap();
         assert!(r.samples().iter().all(|s| s.material == 1));
     }
 
