@@ -387,13 +387,13 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
             "coarse",
         ])
         .arg("--quiet")
-        .arg("--solver")
-        .arg(&quick)
         .arg("--out")
         .arg(dir.path().join(out));
-        if let Some(reuse) = reuse {
-            cmd.arg("--reuse").arg(dir.path().join(reuse));
-        }
+        match reuse {
+            // Built on a dataset, a new one takes that dataset's (quick) solver settings.
+            Some(reuse) => cmd.arg("--reuse").arg(dir.path().join(reuse)),
+            None => cmd.arg("--solver").arg(&quick),
+        };
         cmd.output()
     };
     let first = simulate("a", "Cotton Poplin", "1", None)?;
@@ -418,6 +418,12 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
             read(dir.path().join("b/samples").join(to).join("simulated.npy"))?
         );
     }
+    let manifest = |d: &str| -> anyhow::Result<serde_json::Value> {
+        Ok(serde_json::from_slice(&std::fs::read(
+            dir.path().join(d).join("manifest.json"),
+        )?)?)
+    };
+    assert_eq!(manifest("b")?["solver"], manifest("a")?["solver"]);
     // Other poses: refused, naming what differs.
     let output = simulate("c", "Cotton Poplin", "2", Some("a"))?;
     assert!(!output.status.success());

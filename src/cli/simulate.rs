@@ -56,13 +56,15 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "0/1")]
     pub shard: String,
     /// Solver settings as a JSON file (a `SequenceSettings`; missing fields take defaults).
-    /// Without it, a new dataset takes the defaults and an existing one in `--out` resumes
-    /// with the settings its manifest records (also those of an earlier version).
+    /// Without it, an existing dataset in `--out` resumes with the settings its manifest
+    /// records (also those of an earlier version), a new one built with `--reuse` takes the
+    /// first reused dataset's, and any other new one the defaults.
     #[arg(long)]
     pub solver: Option<PathBuf>,
     /// An existing dataset to build on (repeatable): its finished samples of the materials
     /// listed here too (same name and ω) are copied in first, so only the rest is draped.
-    /// It must have been made with the same template, poses and solver settings.
+    /// It must have been made with the same template and poses; a new `--out` takes its
+    /// solver settings unless `--solver` is given.
     #[arg(long, value_name = "DIR")]
     pub reuse: Vec<PathBuf>,
     /// No progress bar.
@@ -137,18 +139,26 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             serde_json::from_str::<SequenceSettings>(&text)
                 .with_context(|| format!("parsing {}", path.display()))?
         }
-        None if manifest_path(&args.out).exists() => {
-            let existing = Manifest::read(&args.out).with_context(|| {
-                format!("reading the dataset to resume in {}", args.out.display())
-            })?;
-            SequenceSettings::from_manifest(&existing.spec.solver).with_context(|| {
-                format!(
-                    "the solver settings of the dataset in {}",
-                    args.out.display()
-                )
-            })?
+        None => {
+            // Resuming keeps the dataset's own settings; a new dataset built on another
+            // takes that one's, so its samples are walks this dataset would make.
+            let (made, what) = if manifest_path(&args.out).exists() {
+                (Some(&args.out), "resume")
+            } else {
+                (args.reuse.first(), "reuse")
+            };
+            match made {
+                Some(dir) => {
+                    let existing = Manifest::read(dir).with_context(|| {
+                        format!("reading the dataset to {what} in {}", dir.display())
+                    })?;
+                    SequenceSettings::from_manifest(&existing.spec.solver).with_context(|| {
+                        format!("the solver settings of the dataset in {}", dir.display())
+                    })?
+                }
+                None => SequenceSettings::default(),
+            }
         }
-        None => SequenceSettings::default(),
     };
     let config = GenerateConfig {
         out: args.out.clone(),
