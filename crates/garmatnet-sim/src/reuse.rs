@@ -39,7 +39,8 @@ pub struct ImportReport {
 ///   material list (template, body, poses or frames, solver settings, smoothing: its
 ///   samples would be walks another dataset does not make), or lists a material under the
 ///   destination's name with another ω;
-/// - [`Error::InvalidArgument`] if the two share no material in this shard;
+/// - [`Error::InvalidArgument`] if the two share no material at all (a shard that takes
+///   none of the shared ones imports nothing, so one command serves every shard);
 /// - as [`DatasetWriter::write_sample`] for the destination.
 pub fn import_samples(
     writer: &DatasetWriter,
@@ -55,8 +56,9 @@ pub fn import_samples(
             source.display()
         )
     })?;
-    // Source material index -> destination index.
+    // Source material index -> destination index (this shard's), and whether any is shared.
     let mut map = vec![None; reader.spec().materials.len()];
+    let mut shared = false;
     for (to, entry) in dest.materials.iter().enumerate() {
         let Some(from) = reader
             .spec()
@@ -80,26 +82,23 @@ pub fn import_samples(
             }
             .into());
         }
+        shared = true;
         if shard.contains_material(to) {
             map[from] = Some(to);
         }
+    }
+    if !shared {
+        return Err(Error::InvalidArgument(format!(
+            "the dataset to reuse, {}, has none of this dataset's materials (same name and ω): \
+             nothing to reuse",
+            source.display()
+        ))
+        .into());
     }
     let mut report = ImportReport {
         shared_materials: map.iter().flatten().count(),
         ..ImportReport::default()
     };
-    if report.shared_materials == 0 {
-        return Err(Error::InvalidArgument(format!(
-            "the dataset to reuse, {}, has none of this dataset's materials{}: nothing to reuse",
-            source.display(),
-            if shard.count > 1 {
-                format!(" in shard {}/{}", shard.index, shard.count)
-            } else {
-                String::new()
-            }
-        ))
-        .into());
-    }
     for record in reader.samples() {
         let Some(to) = map[record.material] else {
             continue;
@@ -189,10 +188,13 @@ mod tests {
     }
 
     #[test]
-    fn a_shard_imports_only_its_materials() {
+    fn a_shard_imports_only_its_shared_materials() {
         let (root, src, w) = source_and_destination();
         let report = import_samples(&w, &src, Shard::new(1, 2).unwrap()).unwrap();
         assert_eq!((report.shared_materials, report.imported), (1, 3));
+        // Shard 2/3 takes only the new fabric: nothing to import, and no error.
+        let report = import_samples(&w, &src, Shard::new(2, 3).unwrap()).unwrap();
+        assert_eq!(report, ImportReport::default());
         drop(w);
         let r = DatasetReader::open(root.path().join("dst")).unwrap();
         assert!(r.samples().iter().all(|s| s.material == 1));
