@@ -6,11 +6,15 @@
 //! template. The material is Cotton Poplin; settings are the defaults datasets use. The motion
 //! is the gentle pace (frame 10 to 11), so the figures stay comparable with earlier runs; the
 //! default brisk pace walks about 5x farther between frames (README: 1.85x per sample).
+//! Beside them, the interactive frame: the same pose change stepped as an application would
+//! step it ([`FrameStepper`]: the drape carried with the skin in one step, then at most 8
+//! Newton iterations, on a solver made once).
 
-use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use garmatnet::core::{CapsuleBody, Garment, Material, Pose, Resolution};
 use garmatnet::sim::{
-    MotionGenerator, MotionPace, SequenceResume, SequenceSettings, drape_sequence,
+    DrapeSettings, FrameStepper, MotionGenerator, MotionPace, SequenceResume, SequenceSettings,
+    drape_sequence,
 };
 
 fn bench_drape(c: &mut Criterion) {
@@ -54,6 +58,29 @@ fn bench_drape(c: &mut Criterion) {
                 .expect("drape")
             })
         });
+        let budget = DrapeSettings {
+            max_iterations: 8,
+            ..settings.drape.clone()
+        };
+        let stepper = FrameStepper::new(
+            &garment,
+            &body,
+            &material,
+            &budget,
+            &poses[10],
+            warm.clone(),
+        )
+        .expect("stepper");
+        group.bench_function(
+            BenchmarkId::new("interactive_frame_8_iterations", resolution),
+            |b| {
+                b.iter_batched(
+                    || stepper.clone(),
+                    |mut s| s.step(&poses[11]).expect("step"),
+                    BatchSize::LargeInput,
+                )
+            },
+        );
         group.bench_function(BenchmarkId::new("cold_from_rest", resolution), |b| {
             b.iter(|| {
                 drape_sequence(

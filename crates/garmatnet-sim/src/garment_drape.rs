@@ -1,8 +1,10 @@
-//! The T-shirt on the body: the garment template as a [`ClothModel`] for a [`Material`], and
-//! a pose sequence walked in small warm-started steps.
+//! The T-shirt on the body: the garment template as a [`ClothModel`] for a [`Material`], a
+//! draped garment that follows the body from pose to pose ([`FrameStepper`]), and a pose
+//! sequence walked in small warm-started steps ([`drape_sequence`]).
 
+use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{
-    CapsuleBody, Error as CoreError, Garment, Material, Pose, Real, SpringKind, Vec3,
+    CapsuleBody, Error as CoreError, Garment, Material, Pose, PosedBody, Real, SpringKind, Vec3,
 };
 use serde::{Deserialize, Serialize};
 
@@ -168,6 +170,176 @@ pub fn surface_steps(
     Ok(equal_steps(from, to, n))
 }
 
+/// A draped garment that follows its body from pose to pose: the simulator as an
+/// application steps it, one frame at a time, on one solver (its symbolic factorisation made
+/// once).
+///
+/// Each [`FrameStepper::step`] carries the cloth with the skin to the new pose
+/// ([`PosedBody::carry_to`]; unless [`FrameStepper::follow_body`] is off), then runs the
+/// solver from there with friction measured from the carried positions, so the shirt moves
+/// with the body and slides only where it is pulled harder than the Coulomb bound. The
+/// solver's [`DrapeSettings::max_iterations`] is the budget of a step: [`drape_sequence`]
+/// converges every pose (its default cap, 300), while an interactive application can stop
+/// after a few iterations. Measured (README, "The ground-truth solver"; `cargo run -p
+/// garmatnet-sim --release --example frame_budget`): at the paper resolution, 8 iterations
+/// per frame of the gentle motion take about 0.3 s on one core and stay as close to the
+/// dataset's walked drapes as fully converged frames stepped the same way.
+///
+/// ```no_run
+/// use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution};
+/// use garmatnet_sim::{DrapeSettings, FrameStepper, MotionGenerator};
+///
+/// let body = CapsuleBody::smpl_neutral();
+/// let garment = Garment::tshirt(Resolution::Default, &body)?;
+/// let material = Material::preset("Denim Heavy")?;
+/// // Hang the shirt on the rest pose once, to equilibrium...
+/// let mut shirt = FrameStepper::new(
+///     &garment, &body, &material, &DrapeSettings::default(), &Pose::zero(),
+///     garment.rest.vertices.clone(),
+/// )?;
+/// shirt.step(&Pose::zero())?;
+/// // ...then follow a motion with 8 Newton iterations a frame.
+/// shirt.set_settings(&DrapeSettings { max_iterations: 8, ..DrapeSettings::default() })?;
+/// for pose in MotionGenerator::new(0, 20).generate() {
+///     let stats = shirt.step(&pose)?;
+///     println!("{} iterations, residual {:.1e}", stats.iterations, stats.final_residual);
+///     let _vertices = shirt.positions();
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct FrameStepper {
+    solver: DrapeSolver,
+    posed: PosedBody,
+    positions: Vec<Vec3>,
+    anchors: Vec<Vec3>,
+    follow_body: bool,
+}
+
+impl FrameStepper {
+    /// `garment` of `material` at `positions` (metres, one per vertex; a previous drape, or
+    /// the rest template to drape from) on `body` in `pose`, stepped with `settings`.
+    ///
+    /// # Errors
+    /// As [`cloth_from_garment`] and [`DrapeSolver::new`]; [`CoreError::WrongLength`] or
+    /// [`CoreError::NonFinite`] for positions that are not one finite point per vertex.
+    pub fn new(
+        garment: &Garment,
+        body: &CapsuleBody,
+        material: &Material,
+        settings: &DrapeSettings,
+        pose: &Pose,
+        positions: Vec<Vec3>,
+    ) -> Result<Self> {
+        let model = cloth_from_garment(garment, material)?;
+        Self::with_solver(DrapeSolver::new(&model, settings)?, body, pose, positions)
+    }
+
+    /// As [`FrameStepper::new`], with a solver made before (its cloth and settings).
+    ///
+    /// # Errors
+    /// [`CoreError::WrongLength`] or [`CoreError::NonFinite`] for positions that are not one
+    /// finite point per vertex of the solver's cloth.
+    pub fn with_solver(
+        solver: DrapeSolver,
+        body: &CapsuleBody,
+        pose: &Pose,
+        positions: Vec<Vec3>,
+    ) -> Result<Self> {
+        let expected = solver.model().vertex_count();
+        if positions.len() != expected {
+            return Err(CoreError::WrongLength {
+                what: "garment positions to step from".into(),
+                expected: expected.to_string(),
+                got: positions.len(),
+            }
+            .into());
+        }
+        if let Some(v) = positions
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            ensure_finite(
+                &format!("garment positions to step from (vertex {v}, metres)"),
+                positions[v].iter().copied(),
+            )?;
+        }
+        Ok(Self {
+            anchors: positions.clone(),
+            positions,
+            posed: body.pose(pose),
+            solver,
+            follow_body: true,
+        })
+    }
+
+    /// Whether [`FrameStepper::step`] carries the cloth with the skin first (default true;
+    /// [`SequenceSettings::follow_body`]). Off, each step starts where the cloth was and
+    /// friction treats the body as still.
+    #[must_use]
+    pub fn follow_body(mut self, follow: bool) -> Self {
+        self.follow_body = follow;
+        self
+    }
+
+    /// Moves the body to `pose` and drapes the garment there with the solver's settings
+    /// (at most [`DrapeSettings::max_iterations`] Newton iterations), from its current
+    /// positions carried with the skin. A step that stops at the budget is not an error:
+    /// its stats say `converged: false`.
+    ///
+    /// # Errors
+    /// As [`DrapeSolver::drape_with_anchors`]; the positions are then left at the last
+    /// finite iterate.
+    pub fn step(&mut self, pose: &Pose) -> Result<DrapeStats> {
+        let next = self.posed.body().pose(pose);
+        if self.follow_body {
+            self.posed.carry_to(&next, &mut self.positions);
+        }
+        self.anchors.copy_from_slice(&self.positions);
+        self.posed = next;
+        self.solver
+            .drape_with_anchors(&mut self.positions, &self.anchors, &self.posed, &[])
+    }
+
+    /// Replaces the solver's settings (the budget of the next steps among them).
+    ///
+    /// # Errors
+    /// As [`DrapeSolver::set_settings`].
+    pub fn set_settings(&mut self, settings: &DrapeSettings) -> Result<()> {
+        self.solver.set_settings(settings)
+    }
+
+    /// The solver's settings.
+    #[must_use]
+    pub fn settings(&self) -> &DrapeSettings {
+        self.solver.settings()
+    }
+
+    /// The garment's current positions (metres).
+    #[must_use]
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// The garment's current positions, to edit in place (e.g. rounded to the precision a
+    /// file stores, so a resumed run continues from exactly what was saved).
+    pub fn positions_mut(&mut self) -> &mut [Vec3] {
+        &mut self.positions
+    }
+
+    /// The body in its current pose.
+    #[must_use]
+    pub fn posed_body(&self) -> &PosedBody {
+        &self.posed
+    }
+
+    /// The garment's positions, giving up the stepper.
+    #[must_use]
+    pub fn into_positions(self) -> Vec<Vec3> {
+        self.positions
+    }
+}
+
 /// Where a resumed [`drape_sequence`] picks up: pose `next - 1` is done and `positions` is
 /// its saved result (as stored in a dataset: f32 precision).
 #[derive(Debug, Clone, PartialEq)]
@@ -219,7 +391,7 @@ pub fn drape_sequence(
     };
     let mut solver = DrapeSolver::new(&model, &full)?;
     let mut all = Vec::new();
-    let (mut positions, mut current, first) = match resume {
+    let (positions, mut current, first) = match resume {
         None => {
             let mut positions = garment.rest.vertices.clone();
             all.push(solver.drape(&mut positions, &body.pose(&Pose::zero()), &[])?);
@@ -239,24 +411,14 @@ pub fn drape_sequence(
             (r.positions, poses[r.next - 1].clone(), r.next)
         }
     };
-    let mut posed = body.pose(&current);
-    let mut anchors = positions.clone();
-    // One step to `pose`: carry the cloth with the body (when following it), then drape.
-    let mut step = |solver: &mut DrapeSolver, positions: &mut Vec<Vec3>, pose: &Pose| {
-        let next = body.pose(pose);
-        if settings.follow_body {
-            posed.carry_to(&next, positions);
-        }
-        anchors.copy_from_slice(positions);
-        posed = next;
-        solver.drape_with_anchors(positions, &anchors, &posed, &[])
-    };
+    let mut garment_on_body = FrameStepper::with_solver(solver, body, &current, positions)?
+        .follow_body(settings.follow_body);
     for (index, target) in poses.iter().enumerate().skip(first) {
         let steps = surface_steps(
             body,
             &current,
             target,
-            &positions,
+            garment_on_body.positions(),
             settings.max_step_rad,
             settings.max_surface_step,
         )?;
@@ -264,17 +426,17 @@ pub fn drape_sequence(
             .split_last()
             .unwrap_or_else(|| unreachable!("interpolation ends at the target"));
         if !between.is_empty() {
-            solver.set_settings(&quick)?;
+            garment_on_body.set_settings(&quick)?;
             for pose in between {
-                step(&mut solver, &mut positions, pose)?;
+                garment_on_body.step(pose)?;
             }
-            solver.set_settings(&full)?;
+            garment_on_body.set_settings(&full)?;
         }
-        let stats = step(&mut solver, &mut positions, last)?;
-        for p in &mut positions {
+        let stats = garment_on_body.step(last)?;
+        for p in garment_on_body.positions_mut() {
             *p = p.map(|c| f64::from(c as f32));
         }
-        on_sample(index, &positions, &stats)?;
+        on_sample(index, garment_on_body.positions(), &stats)?;
         all.push(stats);
         current = target.clone();
     }

@@ -1,5 +1,5 @@
 //! The T-shirt on the capsule body: material mapping, stability under stress materials and
-//! poses, convergence, and bit-identical resumption.
+//! poses, convergence, bit-identical resumption, and stepping frame by frame on a budget.
 
 use approx::assert_relative_eq;
 use garmatnet_core::{
@@ -7,8 +7,8 @@ use garmatnet_core::{
     SpringKind, Vec3,
 };
 use garmatnet_sim::{
-    DrapeSettings, FactorPrecision, MotionGenerator, SequenceSettings, cloth_from_garment,
-    drape_sequence, extreme_poses,
+    DrapeSettings, FactorPrecision, FrameStepper, MotionGenerator, MotionPace, SequenceSettings,
+    cloth_from_garment, drape_sequence, extreme_poses,
 };
 
 fn coarse() -> (CapsuleBody, Garment) {
@@ -362,4 +362,109 @@ fn surface_steps_follow_the_cloth_not_the_joints_it_does_not_cover() {
     // Left out of the manifest when off, so older datasets' settings still match.
     let json = serde_json::to_value(SequenceSettings::default()).unwrap();
     assert!(json.get("max_surface_step").is_none(), "{json}");
+}
+
+/// Mean distance (mm) between two drapes of the same garment.
+fn mean_mm(a: &[Vec3], b: &[Vec3]) -> Real {
+    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<Real>() * 1e3 / a.len() as Real
+}
+
+#[test]
+fn a_frame_stepper_follows_the_motion_within_its_budget() {
+    let (body, garment) = coarse();
+    let m = Material::preset("Cotton Poplin").unwrap();
+    let poses = MotionGenerator::with_pace(0, 4, MotionPace::Gentle).generate();
+    let mut reference = Vec::new();
+    drape_sequence(
+        &garment,
+        &body,
+        &m,
+        &poses,
+        &SequenceSettings::default(),
+        None,
+        |_, x, _| {
+            reference.push(x.to_vec());
+            Ok(())
+        },
+    )
+    .unwrap();
+    let budget = DrapeSettings {
+        max_iterations: 8,
+        ..DrapeSettings::default()
+    };
+    let stepper = |settings: &DrapeSettings| {
+        FrameStepper::new(
+            &garment,
+            &body,
+            &m,
+            settings,
+            &poses[0],
+            reference[0].clone(),
+        )
+        .unwrap()
+    };
+    // Stepping in place from an equilibrium stays there, up to the friction's slip length
+    // (friction is measured afresh from where the step starts, and its static spring has to
+    // take up the tangential load again).
+    let mut still = stepper(&DrapeSettings::default());
+    let s = still.step(&poses[0]).unwrap();
+    assert!(s.converged, "{s:?}");
+    let moved = mean_mm(still.positions(), &reference[0]);
+    assert!(
+        moved < 1e3 * DrapeSettings::default().friction_slip,
+        "moved {moved} mm"
+    );
+
+    // Eight iterations a frame, each frame from the last budgeted one (no walk between
+    // frames): the budget holds, nothing enters the body, and the drapes stay near the
+    // walked, converged ones — nearer than the cloth merely carried with the skin.
+    let mut budgeted = stepper(&budget);
+    let mut carried = reference[0].clone();
+    for f in 1..poses.len() {
+        let s = budgeted.step(&poses[f]).unwrap();
+        assert!(s.iterations <= 8 && s.max_penetration <= 1e-3, "{s:?}");
+        body.pose(&poses[f - 1])
+            .carry_to(&body.pose(&poses[f]), &mut carried);
+        let (stepped, only_carried) = (
+            mean_mm(budgeted.positions(), &reference[f]),
+            mean_mm(&carried, &reference[f]),
+        );
+        assert!(
+            stepped < 5.0 && stepped < only_carried,
+            "frame {f}: {stepped:.2} mm from the walked drape, carried only {only_carried:.2}"
+        );
+        // Keep the carried-only chain on the reference, so it measures one frame's carry.
+        carried.clone_from(&reference[f]);
+    }
+    assert_eq!(
+        budgeted.posed_body().skinning_transforms(),
+        body.pose(&poses[3]).skinning_transforms()
+    );
+}
+
+#[test]
+fn a_frame_stepper_refuses_positions_it_cannot_step_from() {
+    let (body, garment) = coarse();
+    let m = Material::preset("Cotton Poplin").unwrap();
+    let new = |positions: Vec<Vec3>| {
+        FrameStepper::new(
+            &garment,
+            &body,
+            &m,
+            &DrapeSettings::default(),
+            &Pose::zero(),
+            positions,
+        )
+    };
+    let short = garment.rest.vertices[1..].to_vec();
+    let err = new(short).unwrap_err().to_string();
+    assert!(err.contains("garment positions to step from"), "{err}");
+    let mut bad = garment.rest.vertices.clone();
+    bad[7].y = Real::NAN;
+    let err = new(bad).unwrap_err().to_string();
+    assert!(
+        err.contains("garment positions") && err.contains("vertex 7"),
+        "{err}"
+    );
+    assert!(new(garment.rest.vertices.clone()).is_ok());
 }

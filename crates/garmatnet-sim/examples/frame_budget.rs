@@ -1,0 +1,139 @@
+//! Run: `cargo run -p garmatnet-sim --release --example frame_budget -- [coarse|default|paper] [frames] [preset] [gentle|brisk]`
+//!
+//! What a fixed Newton budget per frame buys an interactive application that has the
+//! previous frame's drape. The reference is the dataset's own walk (converged at every
+//! frame). For each frame f ≥ 1 the converged drape of frame f − 1 is carried with the skin
+//! to frame f's body in one step (no intermediate poses) and given 0, 1, 2, 4 or 8 Newton
+//! iterations; each row prints the time of that step on one solver kept across frames and the
+//! mean, 95th-percentile and largest per-vertex distance (mm) to the reference at frame f.
+//! `BUDGETS=4,8` picks the budgets (default 0,1,2,4,8,16,300). `CHAIN=1` starts each frame from the previous frame's budgeted result instead of its
+//! reference, as an application stepping on its own does. `WALK=1` walks the intermediate poses instead (the dataset's steps and their iterations)
+//! before the budget. Motion seed 0 (the datasets').
+
+use std::time::Instant;
+
+use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution, Vec3};
+use garmatnet_sim::{
+    DrapeSettings, DrapeSolver, MotionGenerator, MotionPace, SequenceSettings, cloth_from_garment,
+    drape_sequence, surface_steps,
+};
+
+fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args().skip(1);
+    let resolution: Resolution = args.next().unwrap_or("default".into()).parse()?;
+    let frames: usize = args.next().unwrap_or("6".into()).parse()?;
+    let preset = args.next().unwrap_or("Cotton Poplin".into());
+    let pace: MotionPace = args.next().unwrap_or("brisk".into()).parse()?;
+    let walk = std::env::var("WALK").is_ok_and(|v| v == "1");
+    let chain = std::env::var("CHAIN").is_ok_and(|v| v == "1");
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(resolution, &body)?;
+    let material = Material::preset(&preset)?;
+    let poses = MotionGenerator::with_pace(0, frames, pace).generate();
+    let settings = SequenceSettings::default();
+    let mut reference: Vec<Vec<Vec3>> = Vec::new();
+    let t = Instant::now();
+    drape_sequence(
+        &garment,
+        &body,
+        &material,
+        &poses,
+        &settings,
+        None,
+        |_, x, s| {
+            println!(
+                "reference frame {}: {} it, {:.0} ms",
+                reference.len(),
+                s.iterations,
+                s.wall_time_ms
+            );
+            reference.push(x.to_vec());
+            Ok(())
+        },
+    )?;
+    println!(
+        "{} vertices, {preset}, {pace:?}; reference walk {:.1} s",
+        garment.vertex_count(),
+        t.elapsed().as_secs_f64()
+    );
+    let model = cloth_from_garment(&garment, &material)?;
+    let mut solver = DrapeSolver::new(&model, &settings.drape)?;
+    let quick = DrapeSettings {
+        max_iterations: settings.intermediate_iterations,
+        ..settings.drape.clone()
+    };
+    let budgets: Vec<usize> = match std::env::var("BUDGETS") {
+        Ok(v) => v.split(',').map(str::parse).collect::<Result<_, _>>()?,
+        Err(_) => vec![0, 1, 2, 4, 8, 16, 300],
+    };
+    for budget in budgets {
+        let mut times = Vec::new();
+        let mut errors = Vec::new();
+        let mut worst_pen: f64 = 0.0;
+        let mut previous = reference[0].clone();
+        for f in 1..frames {
+            let mut x = if chain {
+                previous.clone()
+            } else {
+                reference[f - 1].clone()
+            };
+            let start = Instant::now();
+            let mut posed = body.pose(&poses[f - 1]);
+            let steps: Vec<Pose> = if walk {
+                surface_steps(
+                    &body,
+                    &poses[f - 1],
+                    &poses[f],
+                    &x,
+                    settings.max_step_rad,
+                    0.0,
+                )?
+            } else {
+                vec![poses[f].clone()]
+            };
+            for (i, pose) in steps.iter().enumerate() {
+                let next = body.pose(pose);
+                posed.carry_to(&next, &mut x);
+                posed = next;
+                let last = i + 1 == steps.len();
+                if !last {
+                    solver.set_settings(&quick)?;
+                } else if budget == 0 {
+                    continue;
+                } else {
+                    solver.set_settings(&DrapeSettings {
+                        max_iterations: budget,
+                        ..settings.drape.clone()
+                    })?;
+                }
+                let anchors = x.clone();
+                let s = solver.drape_with_anchors(&mut x, &anchors, &posed, &[])?;
+                if last {
+                    worst_pen = worst_pen.max(s.max_penetration);
+                }
+            }
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+            previous.clone_from(&x);
+            let mut d: Vec<f64> = x
+                .iter()
+                .zip(&reference[f])
+                .map(|(a, b)| (a - b).norm() * 1e3)
+                .collect();
+            d.sort_by(f64::total_cmp);
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            errors.push((mean, d[d.len() * 95 / 100], d[d.len() - 1]));
+        }
+        let n = times.len() as f64;
+        println!(
+            "budget {budget}: {:.0} ms/frame (max {:.0}), error mean {:.2} mm, p95 {:.2}, max {:.2} (worst frame mean {:.2}), penetration {:.1e} m",
+            times.iter().sum::<f64>() / n,
+            times.iter().copied().fold(0.0, f64::max),
+            errors.iter().map(|e| e.0).sum::<f64>() / n,
+            errors.iter().map(|e| e.1).sum::<f64>() / n,
+            errors.iter().map(|e| e.2).fold(0.0, f64::max),
+            errors.iter().map(|e| e.0).fold(0.0, f64::max),
+            worst_pen,
+        );
+    }
+    Ok(())
+}
