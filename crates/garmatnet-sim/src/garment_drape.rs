@@ -246,24 +246,7 @@ impl FrameStepper {
         pose: &Pose,
         positions: Vec<Vec3>,
     ) -> Result<Self> {
-        let expected = solver.model().vertex_count();
-        if positions.len() != expected {
-            return Err(CoreError::WrongLength {
-                what: "garment positions to step from".into(),
-                expected: expected.to_string(),
-                got: positions.len(),
-            }
-            .into());
-        }
-        if let Some(v) = positions
-            .iter()
-            .position(|p| !p.iter().all(|c| c.is_finite()))
-        {
-            ensure_finite(
-                &format!("garment positions to step from (vertex {v}, metres)"),
-                positions[v].iter().copied(),
-            )?;
-        }
+        check_positions(&positions, solver.model().vertex_count())?;
         Ok(Self {
             anchors: positions.clone(),
             positions,
@@ -338,6 +321,41 @@ impl FrameStepper {
     pub fn into_positions(self) -> Vec<Vec3> {
         self.positions
     }
+
+    /// Puts the garment at `positions` on the body in `pose` (a saved frame, say: a jump in
+    /// a timeline), keeping the solver.
+    ///
+    /// # Errors
+    /// As [`FrameStepper::with_solver`]; the stepper is unchanged then.
+    pub fn restart(&mut self, pose: &Pose, positions: &[Vec3]) -> Result<()> {
+        check_positions(positions, self.positions.len())?;
+        self.positions.copy_from_slice(positions);
+        self.anchors.copy_from_slice(positions);
+        self.posed = self.posed.body().pose(pose);
+        Ok(())
+    }
+}
+
+/// One finite point per vertex of an `expected`-vertex garment.
+fn check_positions(positions: &[Vec3], expected: usize) -> Result<()> {
+    if positions.len() != expected {
+        return Err(CoreError::WrongLength {
+            what: "garment positions to step from".into(),
+            expected: expected.to_string(),
+            got: positions.len(),
+        }
+        .into());
+    }
+    if let Some(v) = positions
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        ensure_finite(
+            &format!("garment positions to step from (vertex {v}, metres)"),
+            positions[v].iter().copied(),
+        )?;
+    }
+    Ok(())
 }
 
 /// Where a resumed [`drape_sequence`] picks up: pose `next - 1` is done and `positions` is

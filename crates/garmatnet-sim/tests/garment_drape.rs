@@ -440,6 +440,22 @@ fn a_frame_stepper_follows_the_motion_within_its_budget() {
         budgeted.posed_body().skinning_transforms(),
         body.pose(&poses[3]).skinning_transforms()
     );
+
+    // Restarting at a saved frame steps exactly as a stepper made there.
+    let mut restarted = stepper(&budget);
+    restarted.restart(&poses[2], &reference[2]).unwrap();
+    let mut made_there = FrameStepper::new(
+        &garment,
+        &body,
+        &m,
+        &budget,
+        &poses[2],
+        reference[2].clone(),
+    )
+    .unwrap();
+    restarted.step(&poses[3]).unwrap();
+    made_there.step(&poses[3]).unwrap();
+    assert_eq!(restarted.positions(), made_there.positions());
 }
 
 #[test]
@@ -461,10 +477,17 @@ fn a_frame_stepper_refuses_positions_it_cannot_step_from() {
     assert!(err.contains("garment positions to step from"), "{err}");
     let mut bad = garment.rest.vertices.clone();
     bad[7].y = Real::NAN;
-    let err = new(bad).unwrap_err().to_string();
+    let err = new(bad.clone()).unwrap_err().to_string();
     assert!(
         err.contains("garment positions") && err.contains("vertex 7"),
         "{err}"
     );
-    assert!(new(garment.rest.vertices.clone()).is_ok());
+    let mut stepper = new(garment.rest.vertices.clone()).unwrap();
+    assert!(stepper.restart(&Pose::zero(), &bad).is_err());
+    assert!(stepper.restart(&Pose::zero(), &bad[1..]).is_err());
+    assert_eq!(
+        stepper.positions(),
+        &garment.rest.vertices[..],
+        "a refused restart changes nothing"
+    );
 }
