@@ -1,0 +1,113 @@
+//! Run: `cargo run --release --example polish [-- --materials A,B --frames 10,20 --budgets 0,2,4,8,16]`
+//!
+//! The network's prediction as the simulator's starting point. Drapes each fabric along the
+//! built-in motion the way its dataset does (brisk, seed 0, 200 frames, default resolution,
+//! the dataset settings) up to the last requested frame; at each requested frame (held out
+//! of the shipped model's training when a multiple of 10) predicts the shirt with the
+//! shipped model (or `$GARMATNET_MODEL`) and gives that prediction a budget of Newton
+//! iterations on the posed body ([`FrameStepper`], friction measured from the prediction).
+//! Prints the time and the mean per-vertex distance (mm) to the walked drape for each budget.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result, ensure};
+use clap::Parser;
+use garmatnet::core::{CapsuleBody, Garment, Material, Resolution, Vec3};
+use garmatnet::sim::{
+    DrapeSettings, FrameStepper, MotionGenerator, SequenceSettings, drape_sequence,
+};
+use garmatnet::{Detail, Predictor};
+
+/// Command-line arguments.
+#[derive(Debug, Parser)]
+struct Args {
+    /// Preset fabrics, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "Cotton Poplin,Denim Heavy,Silk Chiffon"
+    )]
+    materials: Vec<String>,
+    /// Frames of the 200-frame motion to predict and polish.
+    #[arg(long, value_delimiter = ',', default_value = "10,20")]
+    frames: Vec<usize>,
+    /// Newton budgets to polish with (0: the prediction as it is).
+    #[arg(long, value_delimiter = ',', default_value = "0,2,4,8,16,32")]
+    budgets: Vec<usize>,
+}
+
+fn mean_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() * 1e3 / a.len() as f64
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let last = *args.frames.iter().max().context("--frames is empty")?;
+    ensure!(last < 200, "frames are of the 200-frame motion: 0 to 199");
+    let device = garmatnet::select_device("cpu")?;
+    let predictor = Predictor::default_tshirt(&device)?;
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(Resolution::Default, &body)?;
+    ensure!(
+        predictor.vertex_count() == garment.vertex_count(),
+        "the model is not for the default-resolution shirt"
+    );
+    // The first frames of the dataset's 200-frame sequence (a sequence's frames depend on
+    // its length).
+    let poses = MotionGenerator::new(0, 200).generate();
+    let settings = SequenceSettings::default();
+    let mut totals = vec![(0.0, 0.0); args.budgets.len()];
+    let mut count = 0;
+    for name in &args.materials {
+        let material = Material::preset(name).with_context(|| format!("material {name}"))?;
+        let mut walked: Vec<Vec<Vec3>> = Vec::new();
+        drape_sequence(
+            &garment,
+            &body,
+            &material,
+            &poses[..=last],
+            &settings,
+            None,
+            |_, x, _| {
+                walked.push(x.to_vec());
+                Ok(())
+            },
+        )?;
+        for &f in &args.frames {
+            let predicted = predictor.predict(&poses[f], &material, Detail::Full)?;
+            let mut line = format!("{name}, frame {f}:");
+            for (b, &budget) in args.budgets.iter().enumerate() {
+                let start = Instant::now();
+                let mut shirt = FrameStepper::new(
+                    &garment,
+                    &body,
+                    &material,
+                    &DrapeSettings {
+                        max_iterations: budget.max(1),
+                        ..settings.drape.clone()
+                    },
+                    &poses[f],
+                    predicted.vertices.clone(),
+                )?;
+                if budget > 0 {
+                    shirt.step(&poses[f])?;
+                }
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                let mm = mean_mm(shirt.positions(), &walked[f]);
+                totals[b].0 += ms;
+                totals[b].1 += mm;
+                line += &format!("  {budget} it {mm:.2} mm ({ms:.0} ms)");
+            }
+            println!("{line}");
+            count += 1;
+        }
+    }
+    for (budget, (ms, mm)) in args.budgets.iter().zip(&totals) {
+        println!(
+            "budget {budget}: mean {:.2} mm, {:.0} ms (solver made per frame included)",
+            mm / f64::from(count),
+            ms / f64::from(count)
+        );
+    }
+    Ok(())
+}
