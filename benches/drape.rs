@@ -14,7 +14,7 @@ use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_ma
 use garmatnet::core::{CapsuleBody, Garment, Material, Pose, Resolution};
 use garmatnet::sim::{
     DrapeSettings, FrameStepper, MotionGenerator, MotionPace, SequenceResume, SequenceSettings,
-    drape_sequence,
+    drape_poses, drape_sequence,
 };
 
 fn bench_drape(c: &mut Criterion) {
@@ -26,20 +26,10 @@ fn bench_drape(c: &mut Criterion) {
     for resolution in [Resolution::Default, Resolution::Paper] {
         let garment = Garment::tshirt(resolution, &body).expect("template");
         // Drape frames 0..10 once; each iteration then re-drapes frame 11 from frame 10.
-        let mut warm = Vec::new();
-        drape_sequence(
-            &garment,
-            &body,
-            &material,
-            &poses[..11],
-            &settings,
-            None,
-            |_, x, _| {
-                warm = x.to_vec();
-                Ok(())
-            },
-        )
-        .expect("warm-up sequence");
+        let warm = drape_poses(&garment, &body, &material, &poses[..11], &settings)
+            .expect("warm-up sequence")
+            .pop()
+            .expect("frame 10");
         group.bench_function(BenchmarkId::new("warm_started_pose", resolution), |b| {
             b.iter(|| {
                 let resume = SequenceResume {

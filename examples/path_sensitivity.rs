@@ -10,9 +10,9 @@
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
-use garmatnet::core::{CapsuleBody, Garment, Material, Resolution, Vec3};
+use garmatnet::core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet::sim::{
-    MotionGenerator, MotionPace, SequenceResume, SequenceSettings, drape_sequence,
+    MotionGenerator, MotionPace, SequenceResume, SequenceSettings, drape_poses, drape_sequence,
 };
 
 /// Command-line arguments.
@@ -48,19 +48,7 @@ fn main() -> Result<()> {
     let mut means = Vec::new();
     for name in &args.materials {
         let material = Material::preset(name).with_context(|| format!("material {name}"))?;
-        let mut walked: Vec<Vec<Vec3>> = Vec::new();
-        drape_sequence(
-            &garment,
-            &body,
-            &material,
-            &poses,
-            &settings,
-            None,
-            |_, x, _| {
-                walked.push(x.to_vec());
-                Ok(())
-            },
-        )?;
+        let walked = drape_poses(&garment, &body, &material, &poses, &settings)?;
         let resume = SequenceResume {
             next: f - 1,
             positions: walked[f - 2].clone(),

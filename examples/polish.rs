@@ -13,9 +13,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
 use garmatnet::core::{CapsuleBody, Garment, Material, Resolution, Vec3};
-use garmatnet::sim::{
-    DrapeSettings, FrameStepper, MotionGenerator, SequenceSettings, drape_sequence,
-};
+use garmatnet::sim::{DrapeSettings, FrameStepper, MotionGenerator, SequenceSettings, drape_poses};
 use garmatnet::{Detail, Predictor};
 
 /// Command-line arguments.
@@ -60,19 +58,7 @@ fn main() -> Result<()> {
     let mut count = 0;
     for name in &args.materials {
         let material = Material::preset(name).with_context(|| format!("material {name}"))?;
-        let mut walked: Vec<Vec<Vec3>> = Vec::new();
-        drape_sequence(
-            &garment,
-            &body,
-            &material,
-            &poses[..=last],
-            &settings,
-            None,
-            |_, x, _| {
-                walked.push(x.to_vec());
-                Ok(())
-            },
-        )?;
+        let walked = drape_poses(&garment, &body, &material, &poses[..=last], &settings)?;
         for &f in &args.frames {
             let predicted = predictor.predict(&poses[f], &material, Detail::Full)?;
             let mut line = format!("{name}, frame {f}:");

@@ -12,9 +12,9 @@
 
 use std::time::Instant;
 
-use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution, Vec3};
+use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution};
 use garmatnet_sim::{
-    DrapeSettings, FrameStepper, MotionGenerator, MotionPace, SequenceSettings, drape_sequence,
+    DrapeSettings, FrameStepper, MotionGenerator, MotionPace, SequenceSettings, drape_poses,
     surface_steps,
 };
 
@@ -31,26 +31,8 @@ fn main() -> anyhow::Result<()> {
     let material = Material::preset(&preset)?;
     let poses = MotionGenerator::with_pace(0, frames, pace).generate();
     let settings = SequenceSettings::default();
-    let mut reference: Vec<Vec<Vec3>> = Vec::new();
     let t = Instant::now();
-    drape_sequence(
-        &garment,
-        &body,
-        &material,
-        &poses,
-        &settings,
-        None,
-        |_, x, s| {
-            println!(
-                "reference frame {}: {} it, {:.0} ms",
-                reference.len(),
-                s.iterations,
-                s.wall_time_ms
-            );
-            reference.push(x.to_vec());
-            Ok(())
-        },
-    )?;
+    let reference = drape_poses(&garment, &body, &material, &poses, &settings)?;
     println!(
         "{} vertices, {preset}, {pace:?}; reference walk {:.1} s",
         garment.vertex_count(),

@@ -460,3 +460,23 @@ pub fn drape_sequence(
     }
     Ok(all)
 }
+
+/// Every pose's settled garment along [`drape_sequence`]'s walk from the rest pose (metres;
+/// one per pose, in order), for callers that want the drapes rather than a callback.
+///
+/// # Errors
+/// As [`drape_sequence`].
+pub fn drape_poses(
+    garment: &Garment,
+    body: &CapsuleBody,
+    material: &Material,
+    poses: &[Pose],
+    settings: &SequenceSettings,
+) -> Result<Vec<Vec<Vec3>>> {
+    let mut drapes = Vec::with_capacity(poses.len());
+    drape_sequence(garment, body, material, poses, settings, None, |_, x, _| {
+        drapes.push(x.to_vec());
+        Ok(())
+    })?;
+    Ok(drapes)
+}

@@ -8,7 +8,7 @@ use garmatnet_core::{
 };
 use garmatnet_sim::{
     DrapeSettings, FactorPrecision, FrameStepper, MotionGenerator, MotionPace, SequenceSettings,
-    cloth_from_garment, drape_sequence, extreme_poses,
+    cloth_from_garment, drape_poses, drape_sequence, extreme_poses,
 };
 
 fn coarse() -> (CapsuleBody, Garment) {
@@ -374,20 +374,7 @@ fn a_frame_stepper_follows_the_motion_within_its_budget() {
     let (body, garment) = coarse();
     let m = Material::preset("Cotton Poplin").unwrap();
     let poses = MotionGenerator::with_pace(0, 4, MotionPace::Gentle).generate();
-    let mut reference = Vec::new();
-    drape_sequence(
-        &garment,
-        &body,
-        &m,
-        &poses,
-        &SequenceSettings::default(),
-        None,
-        |_, x, _| {
-            reference.push(x.to_vec());
-            Ok(())
-        },
-    )
-    .unwrap();
+    let reference = drape_poses(&garment, &body, &m, &poses, &SequenceSettings::default()).unwrap();
     let budget = DrapeSettings {
         max_iterations: 8,
         ..DrapeSettings::default()
