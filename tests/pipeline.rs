@@ -354,6 +354,13 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         "{reference}"
     );
     assert!(find("simulator ≤ 2 it", 1)["error_mm"].as_f64().unwrap() > 0.0);
+    // The frame stepped as an application steps it (the default budget, 8).
+    let frame = find("simulator frame, one step ≤ 8 it", 1);
+    assert!(
+        frame["error_mm"].as_f64().unwrap().is_finite()
+            && frame["ms_per_frame"].as_f64().unwrap() > 0.0,
+        "{frame}"
+    );
     for method in ["GarMatNet full", "GarMatNet smooth", "GarMatNet again full"] {
         for batch in [1, 8] {
             let row = find(method, batch);

@@ -38,6 +38,11 @@ pub struct BenchArgs {
     /// the converged reference, is always added).
     #[arg(long, default_value = "4,10,25,50,100")]
     pub sim_budgets: String,
+    /// Newton-iteration budgets of the simulator stepped as an application steps it (the
+    /// previous frame carried with the skin in one step, then at most this many iterations),
+    /// comma-separated; empty for none.
+    #[arg(long, default_value = "8")]
+    pub sim_frame_budgets: String,
     /// Batch size of the batched rows.
     #[arg(long, default_value_t = 64)]
     pub batch: usize,
@@ -58,16 +63,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             _ => bail!("--variant `{v}`: write NAME=FILE, e.g. hidden-256=m256.safetensors"),
         })
         .collect::<Result<Vec<_>>>()?;
-    let sim_budgets = args
-        .sim_budgets
-        .split(',')
-        .filter(|s| !s.trim().is_empty())
-        .map(|s| {
-            s.trim()
-                .parse::<usize>()
-                .with_context(|| format!("--sim-budgets: `{s}` is not a whole number"))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let sim_budgets = whole_numbers("--sim-budgets", &args.sim_budgets)?;
+    let sim_frame_budgets = whole_numbers("--sim-frame-budgets", &args.sim_frame_budgets)?;
     let config = BenchConfig {
         devices: args
             .devices
@@ -77,6 +74,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         samples: args.samples,
         sim_samples: args.sim_samples,
         sim_budgets,
+        sim_frame_budgets,
         batch: args.batch,
         repeats: args.repeats,
     };
@@ -94,4 +92,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// A comma-separated list of whole numbers given to `flag` (empty entries skipped).
+fn whole_numbers(flag: &str, list: &str) -> Result<Vec<usize>> {
+    list.split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| {
+            s.trim()
+                .parse::<usize>()
+                .with_context(|| format!("{flag}: `{s}` is not a whole number"))
+        })
+        .collect()
 }

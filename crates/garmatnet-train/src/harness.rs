@@ -2,8 +2,9 @@
 //! (target materials × held-out poses of a model's split) it measures milliseconds per frame
 //! and the mean per-vertex error (mm) against the dataset's ground truth of
 //! - the simulator at several Newton-iteration budgets, warm-started from the previous
-//!   frame's ground truth as an interactive application would run it, up to the converged
-//!   reference the dataset was generated with;
+//!   frame's ground truth, up to the converged reference the dataset was generated with;
+//! - the simulator as an interactive application steps it ([`FrameStepper`]: the previous
+//!   frame's ground truth carried with the skin in one step, then a small budget);
 //! - GarMatNet at `Detail::Full` and `Detail::Smooth`, batch 1 and batched, on every device
 //!   asked for, for the main model and any variants (other hidden sizes, low-rank heads);
 //! - the TailorNet-style baseline (one pose-only model per target material).
@@ -16,7 +17,9 @@ use std::time::Instant;
 
 use garmatnet_core::{Material, Pose, Real, Vec3};
 use garmatnet_model::{Detail, GarMatNetModel, Predictor, PushOut, push_out, select_device};
-use garmatnet_sim::{SequenceResume, SequenceSettings, drape_sequence};
+use garmatnet_sim::{
+    DrapeSettings, FrameStepper, SequenceResume, SequenceSettings, drape_sequence,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::baseline::Baseline;
@@ -41,6 +44,11 @@ pub struct BenchConfig {
     /// Newton-iteration budgets of the simulator's final converge; budgets at or above the
     /// dataset's own cap give the converged reference.
     pub sim_budgets: Vec<usize>,
+    /// Newton-iteration budgets of the simulator stepped frame by frame ([`FrameStepper`]):
+    /// the previous frame's ground truth carried with the skin to the sample's pose in one
+    /// step (no walk) and given at most this many iterations, on a solver made beforehand as
+    /// an application keeps one (only the step is timed). Empty: none.
+    pub sim_frame_budgets: Vec<usize>,
     /// Batch size of the batched rows (the samples repeated to fill it).
     pub batch: usize,
     /// Timed repetitions of every batch-1 prediction (the median is reported).
@@ -54,6 +62,7 @@ impl Default for BenchConfig {
             samples: 16,
             sim_samples: 3,
             sim_budgets: vec![4, 10, 25, 50, 100, 300],
+            sim_frame_budgets: vec![8],
             batch: 64,
             repeats: 5,
         }
@@ -314,6 +323,44 @@ fn bench_simulator(
         };
         rows.push(BenchRow {
             method,
+            family: "simulator".into(),
+            device: "cpu, 1 thread".into(),
+            batch: 1,
+            ms_per_frame: ms.iter().sum::<Real>() / ms.len() as Real,
+            error_mm: err / cases.len() as Real,
+            samples: cases.len(),
+            size_mb: None,
+            pareto: false,
+        });
+    }
+    for &budget in &config.sim_frame_budgets {
+        let settings = DrapeSettings {
+            max_iterations: budget.clamp(1, cap),
+            ..reference.drape.clone()
+        };
+        let (mut ms, mut err) = (Vec::new(), 0.0);
+        for case in cases {
+            let previous = data.truth(SampleKey {
+                material: case.key.material,
+                pose: case.key.pose - 1,
+            })?;
+            let poses = &data.spec().poses;
+            let mut shirt = FrameStepper::new(
+                data.garment(),
+                data.body(),
+                &case.material,
+                &settings,
+                &poses[case.key.pose - 1],
+                previous.simulated,
+            )?
+            .follow_body(reference.follow_body);
+            let started = Instant::now();
+            shirt.step(&poses[case.key.pose])?;
+            ms.push(started.elapsed().as_secs_f64() * 1e3);
+            err += mean_error_mm(shirt.positions(), &case.truth);
+        }
+        rows.push(BenchRow {
+            method: format!("simulator frame, one step ≤ {} it", settings.max_iterations),
             family: "simulator".into(),
             device: "cpu, 1 thread".into(),
             batch: 1,
