@@ -274,6 +274,10 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
         (bench(&["--variant", "nameonly"]), "NAME=FILE"),
         (bench(&["--sim-budgets", "ten"]), "whole number"),
         (
+            bench(&["--sim-frame-budgets", "eight"]),
+            "--sim-frame-budgets: `eight` is not a whole number",
+        ),
+        (
             ["stress", "--model", &model_arg, "--batch", "0"]
                 .map(String::from)
                 .to_vec(),
