@@ -32,5 +32,7 @@ pub use garmatnet_core::{
 pub use garmatnet_model::{
     Detail, GarMatNetConfig, GarMatNetModel, GarmentMesh, Predictor, PushOut, Scene, select_device,
 };
-pub use garmatnet_sim::{DrapeSettings, DrapeSolver, GenerateConfig, generate_dataset};
+pub use garmatnet_sim::{
+    DrapeSettings, DrapeSolver, FrameStepper, GenerateConfig, generate_dataset,
+};
 pub use garmatnet_train::{EvalConfig, TrainConfig, evaluate, train};
