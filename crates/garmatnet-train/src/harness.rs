@@ -286,16 +286,20 @@ fn bench_simulator(
     budgets.push(cap);
     budgets.sort_unstable();
     budgets.dedup();
+    // Every case starts from the ground truth of the frame before it.
+    let previous_truth = |case: &Case| {
+        data.truth(SampleKey {
+            material: case.key.material,
+            pose: case.key.pose - 1,
+        })
+    };
     let mut rows = Vec::new();
     for budget in budgets {
         let mut settings = reference.clone();
         settings.drape.max_iterations = budget;
         let (mut ms, mut err) = (Vec::new(), 0.0);
         for case in cases {
-            let previous = data.truth(SampleKey {
-                material: case.key.material,
-                pose: case.key.pose - 1,
-            })?;
+            let previous = previous_truth(case)?;
             let mut result = Vec::new();
             let started = Instant::now();
             drape_sequence(
@@ -321,17 +325,7 @@ fn bench_simulator(
         } else {
             format!("simulator ≤ {budget} it")
         };
-        rows.push(BenchRow {
-            method,
-            family: "simulator".into(),
-            device: "cpu, 1 thread".into(),
-            batch: 1,
-            ms_per_frame: ms.iter().sum::<Real>() / ms.len() as Real,
-            error_mm: err / cases.len() as Real,
-            samples: cases.len(),
-            size_mb: None,
-            pareto: false,
-        });
+        rows.push(simulator_row(method, &ms, err));
     }
     for &budget in &config.sim_frame_budgets {
         let settings = DrapeSettings {
@@ -340,10 +334,7 @@ fn bench_simulator(
         };
         let (mut ms, mut err) = (Vec::new(), 0.0);
         for case in cases {
-            let previous = data.truth(SampleKey {
-                material: case.key.material,
-                pose: case.key.pose - 1,
-            })?;
+            let previous = previous_truth(case)?;
             let poses = &data.spec().poses;
             let mut shirt = FrameStepper::new(
                 data.garment(),
@@ -359,19 +350,25 @@ fn bench_simulator(
             ms.push(started.elapsed().as_secs_f64() * 1e3);
             err += mean_error_mm(shirt.positions(), &case.truth);
         }
-        rows.push(BenchRow {
-            method: format!("simulator frame, one step ≤ {} it", settings.max_iterations),
-            family: "simulator".into(),
-            device: "cpu, 1 thread".into(),
-            batch: 1,
-            ms_per_frame: ms.iter().sum::<Real>() / ms.len() as Real,
-            error_mm: err / cases.len() as Real,
-            samples: cases.len(),
-            size_mb: None,
-            pareto: false,
-        });
+        let method = format!("simulator frame, one step ≤ {} it", settings.max_iterations);
+        rows.push(simulator_row(method, &ms, err));
     }
     Ok(rows)
+}
+
+/// A simulator row from each sample's milliseconds and the sum of their errors (mm).
+fn simulator_row(method: String, ms: &[Real], error_sum_mm: Real) -> BenchRow {
+    BenchRow {
+        method,
+        family: "simulator".into(),
+        device: "cpu, 1 thread".into(),
+        batch: 1,
+        ms_per_frame: ms.iter().sum::<Real>() / ms.len() as Real,
+        error_mm: error_sum_mm / ms.len() as Real,
+        samples: ms.len(),
+        size_mb: None,
+        pareto: false,
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
