@@ -14,6 +14,7 @@ use garmatnet::core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet::sim::{
     MotionGenerator, MotionPace, SequenceResume, SequenceSettings, drape_poses, drape_sequence,
 };
+use garmatnet::train::vertex_errors_mm;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -66,11 +67,7 @@ fn main() -> Result<()> {
                 Ok(())
             },
         )?;
-        let mut gaps: Vec<f64> = other
-            .iter()
-            .zip(&walked[f])
-            .map(|(a, b)| (a - b).norm() * 1e3)
-            .collect();
+        let mut gaps = vertex_errors_mm(&other, &walked[f])?;
         gaps.sort_by(f64::total_cmp);
         let mean = gaps.iter().sum::<f64>() / gaps.len() as f64;
         println!(

@@ -12,8 +12,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
-use garmatnet::core::{CapsuleBody, Garment, Material, Resolution, Vec3};
+use garmatnet::core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet::sim::{DrapeSettings, FrameStepper, MotionGenerator, SequenceSettings, drape_poses};
+use garmatnet::train::vertex_errors_mm;
 use garmatnet::{Detail, Predictor};
 
 /// Command-line arguments.
@@ -32,10 +33,6 @@ struct Args {
     /// Newton budgets to polish with (0: the prediction as it is).
     #[arg(long, value_delimiter = ',', default_value = "0,2,4,8,16,32")]
     budgets: Vec<usize>,
-}
-
-fn mean_mm(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() * 1e3 / a.len() as f64
 }
 
 fn main() -> Result<()> {
@@ -79,7 +76,8 @@ fn main() -> Result<()> {
                     shirt.step(&poses[f])?;
                 }
                 let ms = start.elapsed().as_secs_f64() * 1e3;
-                let mm = mean_mm(shirt.positions(), &walked[f]);
+                let errors = vertex_errors_mm(shirt.positions(), &walked[f])?;
+                let mm = errors.iter().sum::<f64>() / errors.len() as f64;
                 totals[b].0 += ms;
                 totals[b].1 += mm;
                 line += &format!("  {budget} it {mm:.2} mm ({ms:.0} ms)");
