@@ -46,7 +46,7 @@ use garmatnet_core::{Error, OutputLock, Result};
 use crate::garment_drape::SequenceSettings;
 use crate::manifest::{
     DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
-    parse_sample_stem, sample_stem,
+    parse_sample_stem, revision_label, sample_stem,
 };
 use crate::sample_arrays::{SampleArrays, write_points_npy};
 
@@ -342,6 +342,16 @@ pub(crate) fn compare_specs(
         expected,
         got,
     };
+    if existing.ground_truth_revision != new.ground_truth_revision {
+        // Compared first: with another solver every other field may match and the drapes
+        // still differ.
+        return Err(differs(
+            "ground-truth revision (the version of the solver its drapes come from; one \
+             dataset holds one revision's drapes, so make a new one)",
+            revision_label(existing.ground_truth_revision),
+            revision_label(new.ground_truth_revision),
+        ));
+    }
     if existing.template != new.template {
         return Err(differs(
             "template",
@@ -464,6 +474,7 @@ pub(crate) mod tests {
                 iterations: 20,
                 weights: "uniform".into(),
             },
+            ground_truth_revision: Some(crate::GROUND_TRUTH_REVISION),
         }
     }
 
@@ -489,6 +500,46 @@ pub(crate) mod tests {
             wall_time_ms: 3.0,
             converged: true,
         }
+    }
+
+    #[test]
+    fn a_dataset_of_another_ground_truth_revision_is_not_resumed() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        w.write_sample(0, 0, &arrays(0, 0), stats(1e-6)).unwrap();
+        drop(w);
+        let mut newer = tiny_spec();
+        newer.ground_truth_revision = Some(crate::GROUND_TRUTH_REVISION + 1);
+        let err = DatasetWriter::open(dir.path(), newer)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            err.contains("ground-truth revision") && err.contains("make a new one"),
+            "{err}"
+        );
+        // Refused without touching it: the same revision still resumes with its sample.
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        assert_eq!(w.done_count(), 1);
+    }
+
+    #[test]
+    fn manifests_made_before_revisions_were_recorded_read_and_write_back_unchanged() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut older = tiny_spec();
+        older.ground_truth_revision = None;
+        let w = DatasetWriter::open(dir.path(), older.clone()).unwrap();
+        w.write_sample(1, 2, &arrays(1, 2), stats(1e-6)).unwrap();
+        drop(w);
+        let raw = std::fs::read_to_string(manifest_path(dir.path())).unwrap();
+        assert!(!raw.contains("ground_truth_revision"), "{raw}");
+        assert_eq!(Manifest::read(dir.path()).unwrap().spec, older);
+        // This build drapes another revision than such a dataset may hold: not resumed.
+        let err = DatasetWriter::open(dir.path(), tiny_spec())
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("unrecorded"), "{err}");
     }
 
     #[test]

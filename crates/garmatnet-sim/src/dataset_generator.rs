@@ -22,7 +22,8 @@ use crate::drape_solver::DrapeStats;
 use crate::error::{Error, Result};
 use crate::garment_drape::{SequenceResume, SequenceSettings, drape_sequence};
 use crate::manifest::{
-    BodyInfo, DatasetSpec, MaterialEntry, SampleStats, SmoothingInfo, TemplateInfo, sample_stem,
+    BodyInfo, DatasetSpec, GROUND_TRUTH_REVISION, MaterialEntry, SampleStats, SmoothingInfo,
+    TemplateInfo, sample_stem,
 };
 use crate::reuse::import_samples;
 use crate::sample_arrays::{SampleArrays, read_simulated};
@@ -240,6 +241,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
             iterations: config.smoothing.iterations as u32,
             weights: format!("{:?}", config.smoothing.weights).to_lowercase(),
         },
+        ground_truth_revision: Some(GROUND_TRUTH_REVISION),
     })
 }
 

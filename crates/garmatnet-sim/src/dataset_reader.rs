@@ -8,7 +8,7 @@ use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::{samples_dir, scan_samples};
 use crate::dataset_generator::SampleDeriver;
-use crate::manifest::{DatasetSpec, Manifest, SampleRecord};
+use crate::manifest::{DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, revision_label};
 use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
 
 /// A dataset opened for reading. Samples come from their completion markers, so a directory
@@ -168,6 +168,9 @@ pub struct DatasetReport {
     pub materials: usize,
     /// Number of poses.
     pub poses: usize,
+    /// The [`crate::GROUND_TRUTH_REVISION`] of the solver that made the dataset, as its
+    /// manifest records it (`None`: made before revisions were recorded).
+    pub ground_truth_revision: Option<u32>,
     /// Finished samples (with a completion marker).
     pub complete: usize,
     /// Samples not finished yet, as (material, pose).
@@ -274,6 +277,19 @@ impl fmt::Display for DatasetReport {
             f,
             "{} materials x {} poses = {expected} samples",
             self.materials, self.poses
+        )?;
+        writeln!(
+            f,
+            "ground-truth revision: {}{}",
+            revision_label(self.ground_truth_revision),
+            if self.ground_truth_revision == Some(GROUND_TRUTH_REVISION) {
+                " (this build's)".to_owned()
+            } else {
+                format!(
+                    "; this build drapes revision {GROUND_TRUTH_REVISION}, so it cannot resume \
+                     or extend this dataset"
+                )
+            }
         )?;
         writeln!(
             f,
@@ -395,6 +411,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     Ok(DatasetReport {
         materials: spec.materials.len(),
         poses: spec.poses.len(),
+        ground_truth_revision: spec.ground_truth_revision,
         complete: reader.samples().len(),
         missing,
         corrupt,
@@ -551,6 +568,13 @@ mod tests {
         assert!(report.is_ok(), "{report}");
         assert!(report.over_stretched.is_empty());
         assert!(!report.to_string().contains("over-stretched"));
+        assert_eq!(report.ground_truth_revision, Some(GROUND_TRUTH_REVISION));
+        assert!(
+            report.to_string().contains(&format!(
+                "ground-truth revision: {GROUND_TRUTH_REVISION} (this build's)"
+            )),
+            "{report}"
+        );
         assert_eq!((report.complete, report.missing.len()), (12, 0));
         assert_eq!(report.residual.max, 11.0);
         assert!((report.residual.mean - 5.5).abs() < 1e-12);

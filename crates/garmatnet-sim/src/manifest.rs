@@ -9,6 +9,24 @@ use serde::{Deserialize, Serialize};
 /// The on-disk format version this crate reads and writes.
 pub const DATASET_FORMAT_VERSION: u32 = 1;
 
+/// The ground-truth revision: which version of the drapes this crate's solver makes, for the
+/// same inputs and settings. It is bumped by every change that moves a drape (the settings in
+/// a manifest cannot show a change of code), recorded in every new dataset's manifest
+/// ([`DatasetSpec::ground_truth_revision`]), and a dataset is only resumed, extended
+/// (`--reuse`) or merged with drapes of its own revision, so one dataset never mixes two
+/// solvers. `tests/ground_truth_revision.rs` holds a fixture of this revision's drapes and
+/// fails when they move.
+///
+/// - **1**: the solver that made the shipped model's 30 × 200 dataset (`e4d34195bfac4646`),
+///   before revisions were recorded (its manifest has none).
+/// - **2**: the final projection out of the body takes Newton steps scaled by the distance
+///   field's gradient length (garmatnet-core's `push_outside`), so it reaches the surface in
+///   the blend regions of the body's capsules. A vertex left inside the body in a crevice
+///   lands elsewhere than in revision 1, and a walk continues from there: Felt's drapes along
+///   the brisk motion (default resolution, seed 0) equal revision 1's to frame 6 and differ
+///   by up to 17 mm from frame 7 on.
+pub const GROUND_TRUTH_REVISION: u32 = 2;
+
 /// The T-shirt template every sample deforms.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TemplateInfo {
@@ -101,6 +119,11 @@ pub struct DatasetSpec {
     pub solver: serde_json::Value,
     /// The smoothing that produced the `smoothed` arrays.
     pub smoothing: SmoothingInfo,
+    /// The [`GROUND_TRUTH_REVISION`] of the solver that draped the samples; `None` for
+    /// datasets made before revisions were recorded (absent from their manifests, which
+    /// read and write back unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground_truth_revision: Option<u32>,
 }
 
 /// The content of `DIR/manifest.json`.
@@ -116,6 +139,13 @@ pub struct Manifest {
 }
 
 impl DatasetSpec {
+    /// The ground-truth revision as a reader should see it: the number, or what an
+    /// unrecorded one means.
+    #[must_use]
+    pub fn revision_label(&self) -> String {
+        revision_label(self.ground_truth_revision)
+    }
+
     /// Checks that the spec is self-consistent.
     ///
     /// # Errors
@@ -206,6 +236,17 @@ impl Manifest {
         let path = manifest_path(dir);
         let bytes = serde_json::to_vec_pretty(self).map_err(|e| Error::io(&path, e.into()))?;
         garmatnet_core::write_bytes_atomic(&path, &bytes)
+    }
+}
+
+/// A ground-truth revision for messages: the number, or what an unrecorded one means.
+pub(crate) fn revision_label(revision: Option<u32>) -> String {
+    match revision {
+        Some(r) => r.to_string(),
+        None => "unrecorded (a dataset made before garmatnet recorded its solver's revision: \
+                 revision 1's solver, or revision 2's if made between 2026-11-24 and the \
+                 version that records it)"
+            .to_owned(),
     }
 }
 

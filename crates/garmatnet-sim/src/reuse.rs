@@ -206,7 +206,11 @@ mod tests {
         let src = root.path().join("src");
         source(&src);
         type Change = fn(&mut DatasetSpec);
-        let cases: [(&str, Change); 4] = [
+        let cases: [(&str, Change); 6] = [
+            ("ground-truth revision", |s| {
+                s.ground_truth_revision = Some(crate::GROUND_TRUTH_REVISION + 1);
+            }),
+            ("ground-truth revision", |s| s.ground_truth_revision = None),
             ("poses", |s| s.poses.swap(0, 1)),
             ("solver settings", |s| {
                 s.solver = serde_json::json!({ "tolerance": 1e-3 });

@@ -450,6 +450,7 @@ mod tests {
                 iterations: 80,
                 weights: "uniform".into(),
             },
+            ground_truth_revision: None,
         }
     }
 
