@@ -346,8 +346,7 @@ pub(crate) fn compare_specs(
         // Compared first: with another solver every other field may match and the drapes
         // still differ.
         return Err(differs(
-            "ground-truth revision (the version of the solver its drapes come from; one \
-             dataset holds one revision's drapes, so make a new one)",
+            "ground-truth revision (which solver's drapes; a dataset holds one revision's)",
             revision_label(existing.ground_truth_revision),
             revision_label(new.ground_truth_revision),
         ));
@@ -515,7 +514,7 @@ pub(crate) mod tests {
             .unwrap()
             .to_string();
         assert!(
-            err.contains("ground-truth revision") && err.contains("make a new one"),
+            err.contains("ground-truth revision") && err.contains("new directory"),
             "{err}"
         );
         // Refused without touching it: the same revision still resumes with its sample.

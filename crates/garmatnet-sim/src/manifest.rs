@@ -243,9 +243,9 @@ impl Manifest {
 pub(crate) fn revision_label(revision: Option<u32>) -> String {
     match revision {
         Some(r) => r.to_string(),
-        None => "unrecorded (a dataset made before garmatnet recorded its solver's revision: \
-                 revision 1's solver, or revision 2's if made between 2026-11-24 and the \
-                 version that records it)"
+        None => "unrecorded (made before datasets recorded it: revision 1, or 2 if made \
+                 after 2026-11-24, when adding \"ground_truth_revision\": 2 to its \
+                 manifest.json lets this version resume it)"
             .to_owned(),
     }
 }

@@ -192,6 +192,35 @@ mod tests {
     }
 
     #[test]
+    fn shards_of_two_ground_truth_revisions_are_not_merged() {
+        let root = tempfile::tempdir().unwrap();
+        let mut older = tiny_spec();
+        older.ground_truth_revision = None;
+        let shards: Vec<PathBuf> = [tiny_spec(), older]
+            .into_iter()
+            .enumerate()
+            .map(|(i, spec)| {
+                let dir = root.path().join(format!("shard{i}"));
+                let w = DatasetWriter::open(&dir, spec).unwrap();
+                w.write_sample(i, 0, &arrays(i, 0), stats(1e-6)).unwrap();
+                dir
+            })
+            .collect();
+        let merged = root.path().join("merged");
+        let err = merge_shards(&merged, &shards, tiny_spec())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("ground-truth revision"), "{err}");
+        assert_eq!(
+            DatasetWriter::open(&merged, tiny_spec())
+                .unwrap()
+                .done_count(),
+            0,
+            "nothing was copied"
+        );
+    }
+
+    #[test]
     fn shard_parsing() {
         assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
         for bad in ["4/4", "1", "a/b", "0/0", "-1/3"] {
