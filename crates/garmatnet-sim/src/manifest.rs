@@ -139,13 +139,6 @@ pub struct Manifest {
 }
 
 impl DatasetSpec {
-    /// The ground-truth revision as a reader should see it: the number, or what an
-    /// unrecorded one means.
-    #[must_use]
-    pub fn revision_label(&self) -> String {
-        revision_label(self.ground_truth_revision)
-    }
-
     /// Checks that the spec is self-consistent.
     ///
     /// # Errors
