@@ -18,7 +18,8 @@ use std::time::Instant;
 use garmatnet_core::{Material, Pose, Real, Vec3};
 use garmatnet_model::{Detail, GarMatNetModel, Predictor, PushOut, push_out, select_device};
 use garmatnet_sim::{
-    DrapeSettings, FrameStepper, SequenceResume, SequenceSettings, drape_sequence,
+    DrapeSettings, FrameStepper, GROUND_TRUTH_REVISION, SequenceResume, SequenceSettings,
+    drape_sequence,
 };
 use serde::{Deserialize, Serialize};
 
@@ -120,6 +121,10 @@ pub struct BenchReport {
     pub rows: Vec<BenchRow>,
     /// What could not be measured, and why.
     pub skipped: Vec<String>,
+    /// What to keep in mind reading the rows (e.g. a dataset draped by another
+    /// ground-truth revision of the solver than the one that ran here).
+    #[serde(default)]
+    pub notes: Vec<String>,
     /// Worker threads the CPU backend could use.
     pub threads: usize,
 }
@@ -220,6 +225,9 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
             .collect(),
         rows,
         skipped,
+        notes: revision_note(data.spec().ground_truth_revision, config.sim_samples > 0)
+            .into_iter()
+            .collect(),
         threads: std::thread::available_parallelism().map_or(1, usize::from),
     };
     write_report(&inputs.out_dir, &report)?;
@@ -563,6 +571,22 @@ fn write_report(dir: &Path, report: &BenchReport) -> Result<()> {
     )
 }
 
+/// The note a report needs when the dataset's drapes come from another ground-truth
+/// revision than this build's solver, which the simulator rows run (`simulated`).
+fn revision_note(dataset_revision: Option<u32>, simulated: bool) -> Option<String> {
+    (simulated && dataset_revision != Some(GROUND_TRUTH_REVISION)).then(|| {
+        format!(
+            "the dataset's drapes are ground-truth revision {}, the simulator rows ran \
+             revision {GROUND_TRUTH_REVISION}: where the two solvers differ, even the \
+             converged row does not reproduce the stored drapes",
+            dataset_revision.map_or(
+                "unrecorded (made before revisions were recorded)".into(),
+                |r| r.to_string()
+            )
+        )
+    })
+}
+
 /// The report as a markdown table, fastest first.
 #[must_use]
 pub fn markdown(report: &BenchReport) -> String {
@@ -586,6 +610,12 @@ pub fn markdown(report: &BenchReport) -> String {
     if !report.skipped.is_empty() {
         md.push_str("\nNot measured:\n");
         for s in &report.skipped {
+            md.push_str(&format!("- {s}\n"));
+        }
+    }
+    if !report.notes.is_empty() {
+        md.push_str("\nNotes:\n");
+        for s in &report.notes {
             md.push_str(&format!("- {s}\n"));
         }
     }
@@ -621,6 +651,29 @@ mod tests {
         mark_pareto(&mut rows);
         let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
         assert_eq!(front, vec![true, true, false, true]);
+    }
+
+    #[test]
+    fn a_dataset_of_another_revision_is_noted_when_the_simulator_ran() {
+        assert_eq!(revision_note(Some(GROUND_TRUTH_REVISION), true), None);
+        assert_eq!(
+            revision_note(None, false),
+            None,
+            "no simulator rows, no note"
+        );
+        for other in [None, Some(GROUND_TRUTH_REVISION + 1)] {
+            let note = revision_note(other, true).unwrap();
+            assert!(note.contains("converged row does not reproduce"), "{note}");
+            let report = BenchReport {
+                dataset_hash: "h".into(),
+                samples: vec!["m000_p0001".into()],
+                rows: vec![row(1.0, 2.0)],
+                skipped: Vec::new(),
+                notes: vec![note.clone()],
+                threads: 1,
+            };
+            assert!(markdown(&report).contains(&format!("Notes:\n- {note}")));
+        }
     }
 
     #[test]
