@@ -7,7 +7,9 @@
 //! before the clearance existed). `MAX_SURFACE_STEP=m` walks in steps that carry the cloth
 //! at most m metres (`SequenceSettings::max_surface_step`; 0, the default, is off).
 //! `STEP_EXPANSION=f` sets the line search's expansion (`DrapeSettings::step_expansion`; 1
-//! is off) and `INTERMEDIATE=k` the Newton iterations per intermediate step.
+//! is off), `INTERMEDIATE=k` the Newton iterations per intermediate step and
+//! `CONTACT_HARDENING=m` the penalty's hardening length inside the body
+//! (`DrapeSettings::contact_hardening`; 0 is off).
 
 use std::time::Instant;
 
@@ -40,6 +42,9 @@ fn main() -> anyhow::Result<()> {
     }
     if let Ok(v) = std::env::var("MAX_SURFACE_STEP") {
         settings.max_surface_step = v.parse()?;
+    }
+    if let Ok(v) = std::env::var("CONTACT_HARDENING") {
+        settings.drape.contact_hardening = v.parse()?;
     }
     if let Ok(v) = std::env::var("STEP_EXPANSION") {
         settings.drape.step_expansion = v.parse()?;

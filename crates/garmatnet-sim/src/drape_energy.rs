@@ -38,6 +38,9 @@ pub(crate) struct DrapeEnergy<'a> {
     pub(crate) margin: Real,
     /// Penalty stiffness per vertex (N/m).
     pub(crate) contact_stiffness: &'a [Real],
+    /// Length scale `ℓ` (metres) of the penalty's hardening inside the collider (0: none;
+    /// [`crate::DrapeSettings::contact_hardening`]).
+    pub(crate) hardening: Real,
     pub(crate) is_pinned: &'a [bool],
 }
 
@@ -56,9 +59,46 @@ impl DrapeEnergy<'_> {
         (distance < self.margin).then_some(Contact { distance, gradient })
     }
 
-    /// The penalty's force on a contact: `k_c (margin - φ) ∇φ` (newtons, outward).
+    /// Depth inside the collider (metres) past which the penalty hardens, at distance `φ`.
+    fn depth(&self, distance: Real) -> Real {
+        if self.hardening > 0.0 {
+            (-distance).max(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The penalty energy of vertex `i` at distance `φ`: `k_c/2 (margin - φ)²` within the
+    /// margin, plus `k_c h³ / (3 ℓ)` at depth `h = -φ > 0` inside the collider when it hardens
+    /// (twice differentiable at the surface: the extra force and stiffness start at zero).
+    fn penalty_energy(&self, i: usize, distance: Real) -> Real {
+        let g = (self.margin - distance).max(0.0);
+        let h = self.depth(distance);
+        let k = self.contact_stiffness[i];
+        let hard = if h > 0.0 {
+            k * h * h * h / (3.0 * self.hardening)
+        } else {
+            0.0
+        };
+        0.5 * k * g * g + hard
+    }
+
+    /// The penalty's force on a contact: `k_c (margin - φ + h²/ℓ) ∇φ` (newtons, outward).
     pub(crate) fn penalty_force(&self, i: usize, c: &Contact) -> Vec3 {
-        c.gradient * (self.contact_stiffness[i] * (self.margin - c.distance))
+        let h = self.depth(c.distance);
+        let hard = if h > 0.0 { h * h / self.hardening } else { 0.0 };
+        c.gradient * (self.contact_stiffness[i] * (self.margin - c.distance + hard))
+    }
+
+    /// The penalty's stiffness along `∇φ` (N/m): `k_c (1 + 2h/ℓ)`.
+    fn penalty_stiffness(&self, i: usize, c: &Contact) -> Real {
+        let h = self.depth(c.distance);
+        let hard = if h > 0.0 {
+            2.0 * h / self.hardening
+        } else {
+            0.0
+        };
+        self.contact_stiffness[i] * (1.0 + hard)
     }
 
     /// Fills `contacts` and `gradient` (newtons; zero on pinned vertices) at `x`.
@@ -126,7 +166,7 @@ impl DrapeEnergy<'_> {
         }
         for (i, c) in contacts.iter().enumerate() {
             if let Some(c) = c {
-                diagonal[i] += c.gradient * c.gradient.transpose() * self.contact_stiffness[i];
+                diagonal[i] += c.gradient * c.gradient.transpose() * self.penalty_stiffness(i, c);
             }
         }
     }
@@ -148,10 +188,19 @@ impl DrapeEnergy<'_> {
             }
             delta += masses[i] * self.gravity * (x1[i].y - x0[i].y);
             let before = contacts0[i].map_or(0.0, |c| self.margin - c.distance);
-            let after = self
-                .contact(i, &x1[i], collider)
-                .map_or(0.0, |c| self.margin - c.distance);
+            let contact1 = self.contact(i, &x1[i], collider);
+            let after = contact1.map_or(0.0, |c| self.margin - c.distance);
             delta += 0.5 * self.contact_stiffness[i] * (after - before) * (after + before);
+            if self.hardening > 0.0 {
+                // The hardening term apart, so the quadratic's difference keeps its precision.
+                let hard = |c: Option<Contact>| {
+                    c.map_or(0.0, |c| {
+                        self.penalty_energy(i, c.distance)
+                            - 0.5 * self.contact_stiffness[i] * (self.margin - c.distance).powi(2)
+                    })
+                };
+                delta += hard(contact1) - hard(contacts0[i]);
+            }
         }
         for s in self.model.springs() {
             let (d0, d1) = (x0[s.a] - x0[s.b], x1[s.a] - x1[s.b]);
@@ -203,24 +252,70 @@ mod tests {
 
     #[test]
     fn gradient_matches_finite_differences() {
-        check_gradient(&Sphere {
-            centre: Vec3::zeros(),
-            radius: 1.0,
-        });
+        for hardening in [0.0, 1e-3] {
+            check_gradient(
+                &Sphere {
+                    centre: Vec3::zeros(),
+                    radius: 1.0,
+                },
+                hardening,
+            );
+        }
     }
 
     #[test]
     fn gradient_matches_finite_differences_where_the_field_is_only_a_distance_bound() {
-        check_gradient(&HalvedSphere(Sphere {
-            centre: Vec3::zeros(),
-            radius: 1.0,
-        }));
+        for hardening in [0.0, 1e-3] {
+            check_gradient(
+                &HalvedSphere(Sphere {
+                    centre: Vec3::zeros(),
+                    radius: 1.0,
+                }),
+                hardening,
+            );
+        }
     }
 
-    fn check_gradient(sphere: &impl SignedDistance) {
+    #[test]
+    fn hardening_stiffens_the_penalty_only_inside_the_collider() {
+        let model = ClothModel::new(&[Vec3::zeros()], &[], &[0.1]).unwrap();
+        let (stiffness, pinned) = ([300.0], [false]);
+        let energy = |hardening| DrapeEnergy {
+            model: &model,
+            gravity: 9.81,
+            margin: 0.003,
+            contact_stiffness: &stiffness,
+            is_pinned: &pinned,
+            hardening,
+        };
+        let (soft, hard) = (energy(0.0), energy(1e-4));
+        let at = |distance| Contact {
+            distance,
+            gradient: Vec3::y(),
+        };
+        // Outside the collider, within the margin: the same penalty.
+        let outside = at(0.001);
+        assert_eq!(
+            soft.penalty_force(0, &outside),
+            hard.penalty_force(0, &outside)
+        );
+        assert_eq!(soft.penalty_energy(0, 0.001), hard.penalty_energy(0, 0.001));
+        // 5 mm inside: 300 (8 mm + 25e-6 / 1e-4 m) = 77.4 N instead of 2.4 N.
+        let inside = at(-0.005);
+        assert_relative_eq!(soft.penalty_force(0, &inside).y, 2.4, max_relative = 1e-12);
+        assert_relative_eq!(hard.penalty_force(0, &inside).y, 77.4, max_relative = 1e-12);
+        assert_relative_eq!(
+            hard.penalty_stiffness(0, &inside),
+            300.0 * (1.0 + 100.0),
+            max_relative = 1e-12
+        );
+    }
+
+    fn check_gradient(sphere: &impl SignedDistance, hardening: Real) {
         let x0 = [
             Vec3::new(0.0, 1.02, 0.0),
-            Vec3::new(0.3, 0.95, 0.1),
+            // 8 mm inside the sphere (4 mm as the halved field measures it).
+            Vec3::new(0.3, 0.94, 0.1),
             Vec3::new(0.1, 1.3, 0.2),
         ];
         let springs = [
@@ -246,6 +341,7 @@ mod tests {
             margin: 0.03,
             contact_stiffness: &stiffness,
             is_pinned: &pinned,
+            hardening,
         };
         let mut contacts = vec![None; 3];
         let mut g = vec![Vec3::zeros(); 3];

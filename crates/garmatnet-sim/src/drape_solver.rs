@@ -278,6 +278,7 @@ impl DrapeSolver {
             margin: s.contact_margin,
             contact_stiffness: &self.contact_stiffness,
             is_pinned: &is_pinned,
+            hardening: s.contact_hardening,
         };
         let mut friction = Friction::new(s.friction, s.friction_slip, anchors);
 
@@ -566,7 +567,7 @@ impl<'a> Friction<'a> {
 }
 
 fn validate_settings(s: &DrapeSettings) -> Result<()> {
-    let checks: [(&str, Real, Real, Real); 12] = [
+    let checks: [(&str, Real, Real, Real); 13] = [
         ("time step (seconds)", s.time_step, 1e-6, 1e3),
         ("max time step (seconds)", s.max_time_step, s.time_step, 1e3),
         ("residual tolerance", s.residual_tolerance, 0.0, Real::MAX),
@@ -589,6 +590,12 @@ fn validate_settings(s: &DrapeSettings) -> Result<()> {
             s.min_contact_stiffness,
             1e-6,
             1e12,
+        ),
+        (
+            "contact hardening length (metres; 0 is off)",
+            s.contact_hardening,
+            0.0,
+            1.0,
         ),
         ("friction coefficient", s.friction, 0.0, 10.0),
         ("friction slip length (metres)", s.friction_slip, 1e-7, 0.1),

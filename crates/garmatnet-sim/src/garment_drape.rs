@@ -100,7 +100,9 @@ impl SequenceSettings {
     /// the defaults, except those whose default changed what a walk computes: a manifest
     /// written before friction existed has no `drape.friction` or `follow_body`, and its
     /// samples were walked frictionless, so those read as 0 and false; one written before
-    /// the line search's expansion has no `drape.step_expansion`, which reads as 1 (off).
+    /// the line search's expansion has no `drape.step_expansion`, which reads as 1 (off),
+    /// and one written before the penalty hardened inside the body has no
+    /// `drape.contact_hardening`, which reads as 0 (off).
     ///
     /// # Errors
     /// The JSON's error if `solver` is not a settings object.
@@ -114,6 +116,9 @@ impl SequenceSettings {
         }
         if solver.pointer("/drape/step_expansion").is_none() {
             settings.drape.step_expansion = 1.0;
+        }
+        if solver.pointer("/drape/contact_hardening").is_none() {
+            settings.drape.contact_hardening = 0.0;
         }
         Ok(settings)
     }

@@ -5,13 +5,16 @@
 //! good as the revision number, so this test fails when the drapes move without it: the
 //! coarse T-shirt in Felt walked through three of the motion's most extreme poses (arms
 //! against the torso, where the final projection out of the body works in the capsules'
-//! blend regions), compared vertex by vertex with the fixture of this revision.
+//! blend regions), compared vertex by vertex with the fixture of this revision, once with
+//! the default settings and once as a manifest written before the penalty hardened inside
+//! the body reads them (`contact_hardening` 0), so datasets made that way still resume as
+//! they were made.
 //!
 //! When a change moves the drapes on purpose, bump [`GROUND_TRUTH_REVISION`], say in its
 //! doc what changed, and write the new fixture with
 //! `GARMATNET_BLESS=1 cargo test --release -p garmatnet-sim --test ground_truth_revision`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use garmatnet_core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet_sim::sample_arrays::{read_points_npy, write_points_npy};
@@ -24,14 +27,17 @@ use garmatnet_sim::{
 /// that made revision 2 moved this walk's first drape by 0.73 mm).
 const TOLERANCE: f64 = 1e-6;
 
-fn fixture() -> PathBuf {
+fn fixture(settings: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fixtures")
-        .join(format!("ground_truth_r{GROUND_TRUTH_REVISION}.npy"))
+        .join(format!(
+            "ground_truth_r{GROUND_TRUTH_REVISION}_{settings}.npy"
+        ))
 }
 
-/// The walk: every drape's vertices, frame after frame, in f32 as datasets store them.
-fn walk() -> Vec<[f32; 3]> {
+/// The walk with `settings`: every drape's vertices, frame after frame, in f32 as datasets
+/// store them.
+fn walk(settings: &SequenceSettings) -> Vec<[f32; 3]> {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
     let motion = MotionGenerator::new(0, 200).generate();
@@ -40,31 +46,32 @@ fn walk() -> Vec<[f32; 3]> {
         .map(|&i| motion[i].clone())
         .collect();
     let material = Material::preset("Felt").unwrap();
-    drape_poses(
-        &garment,
-        &body,
-        &material,
-        &poses,
-        &SequenceSettings::default(),
-    )
-    .unwrap()
-    .iter()
-    .flatten()
-    .map(|v| [v.x as f32, v.y as f32, v.z as f32])
-    .collect()
+    drape_poses(&garment, &body, &material, &poses, settings)
+        .unwrap()
+        .iter()
+        .flatten()
+        .map(|v| [v.x as f32, v.y as f32, v.z as f32])
+        .collect()
 }
 
 #[test]
 fn the_drapes_are_this_revisions() {
-    let drapes = walk();
-    let path = fixture();
+    let defaults = SequenceSettings::default();
+    let mut unhardened = defaults.clone();
+    unhardened.drape.contact_hardening = 0.0;
+    for (name, settings) in [("defaults", defaults), ("no_hardening", unhardened)] {
+        check(&fixture(name), &walk(&settings));
+    }
+}
+
+fn check(path: &Path, drapes: &[[f32; 3]]) {
     if std::env::var_os("GARMATNET_BLESS").is_some() {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        write_points_npy(&path, &drapes).unwrap();
+        write_points_npy(path, drapes).unwrap();
         eprintln!("wrote {}", path.display());
         return;
     }
-    let pinned = read_points_npy(&path, "fixture").unwrap_or_else(|e| {
+    let pinned = read_points_npy(path, "fixture").unwrap_or_else(|e| {
         panic!(
             "no fixture for ground-truth revision {GROUND_TRUTH_REVISION} ({e}); write it \
              with GARMATNET_BLESS=1 once the revision's doc says what changed"
@@ -87,12 +94,13 @@ fn the_drapes_are_this_revisions() {
     assert!(
         worst <= TOLERANCE,
         "the solver's drapes moved (by {:.3} mm at vertex {} of drape {}) from ground-truth \
-         revision {GROUND_TRUTH_REVISION}'s: datasets of this revision could no longer be \
+         revision {GROUND_TRUTH_REVISION}'s ({}): datasets of this revision could no longer be \
          resumed or extended consistently. If the change is meant, bump GROUND_TRUTH_REVISION \
          (crates/garmatnet-sim/src/manifest.rs), say there what changed, and write the new \
          fixture with GARMATNET_BLESS=1",
         worst * 1e3,
         at % per_frame,
-        at / per_frame
+        at / per_frame,
+        path.display()
     );
 }
