@@ -236,6 +236,7 @@ impl DatasetWriter {
         let numbers = [
             stats.residual,
             stats.max_penetration_m,
+            stats.max_depth_before_projection_m.unwrap_or(0.0),
             stats.max_strain,
             stats.wall_time_ms,
         ];
@@ -495,6 +496,7 @@ pub(crate) mod tests {
             iterations: 12,
             residual,
             max_penetration_m: 1e-3,
+            max_depth_before_projection_m: Some(2e-3),
             max_strain: 0.05,
             wall_time_ms: 3.0,
             converged: true,

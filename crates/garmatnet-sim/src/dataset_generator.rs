@@ -305,6 +305,7 @@ pub fn generate_dataset(
                 iterations: stats.iterations as u64,
                 residual: stats.final_residual,
                 max_penetration_m: stats.max_penetration,
+                max_depth_before_projection_m: Some(stats.max_depth_before_projection),
                 max_strain: stats.max_strain,
                 wall_time_ms: sample_ms,
                 converged: stats.converged,

@@ -185,6 +185,10 @@ pub struct DatasetReport {
     pub residual: Summary,
     /// Deepest penetrations (metres).
     pub max_penetration_m: Summary,
+    /// Deepest vertex inside the body before the solver's final projection (metres), over
+    /// the samples that record it (`None` when none does: datasets made before it was
+    /// recorded).
+    pub max_depth_before_projection_m: Option<Summary>,
     /// Largest spring strains as the solver recorded them: every spring, flexion springs
     /// included (a flexion spring's chord also lengthens when a fold opens, so this is not
     /// only stretch).
@@ -309,6 +313,13 @@ impl fmt::Display for DatasetReport {
         let s = |x: &Summary| format!("min {:.3e}, mean {:.3e}, max {:.3e}", x.min, x.mean, x.max);
         writeln!(f, "residual: {}", s(&self.residual))?;
         writeln!(f, "max penetration (m): {}", s(&self.max_penetration_m))?;
+        if let Some(depth) = &self.max_depth_before_projection_m {
+            writeln!(
+                f,
+                "deepest inside the body before the final projection (m): {}",
+                s(depth)
+            )?;
+        }
         writeln!(
             f,
             "max strain (any spring, as recorded): {}",
@@ -419,6 +430,9 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
         not_converged: stats().filter(|s| !s.converged).count(),
         residual: Summary::of(stats().map(|s| s.residual)),
         max_penetration_m: Summary::of(stats().map(|s| s.max_penetration_m)),
+        max_depth_before_projection_m: stats()
+            .any(|s| s.max_depth_before_projection_m.is_some())
+            .then(|| Summary::of(stats().filter_map(|s| s.max_depth_before_projection_m))),
         max_strain: Summary::of(stats().map(|s| s.max_strain)),
         max_stretch,
         iterations: Summary::of(stats().map(|s| s.iterations as f64)),
@@ -569,6 +583,16 @@ mod tests {
         assert!(report.over_stretched.is_empty());
         assert!(!report.to_string().contains("over-stretched"));
         assert_eq!(report.ground_truth_revision, Some(GROUND_TRUTH_REVISION));
+        assert_eq!(
+            report.max_depth_before_projection_m.map(|d| d.max),
+            Some(2e-3)
+        );
+        assert!(
+            report
+                .to_string()
+                .contains("deepest inside the body before the final projection (m): min 2.000e-3"),
+            "{report}"
+        );
         assert!(
             report.to_string().contains(&format!(
                 "ground-truth revision: {GROUND_TRUTH_REVISION} (this build's)"

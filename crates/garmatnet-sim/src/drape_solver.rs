@@ -68,6 +68,11 @@ pub struct DrapeStats {
     /// Deepest remaining penetration into the collider after the final projection
     /// (metres, >= 0).
     pub max_penetration: Real,
+    /// Deepest vertex inside the collider at the solver's last iterate, before the final
+    /// projection moved it out (metres, >= 0): how far the contact penalty let the cloth
+    /// sink. 0 in stats recorded before it existed.
+    #[serde(default)]
+    pub max_depth_before_projection: Real,
     /// Largest spring strain `(l - rest) / rest` (dimensionless; negative when all springs
     /// are compressed).
     pub max_strain: Real,
@@ -427,6 +432,12 @@ impl DrapeSolver {
                 h = (h * 0.25).max(MIN_TIME_STEP);
             }
         };
+        let max_depth_before_projection = positions
+            .iter()
+            .zip(&is_pinned)
+            .filter(|(_, pinned)| !**pinned)
+            .map(|(x, _)| -collider.distance(x))
+            .fold(0.0, Real::max);
         let max_penetration = push_out(positions, collider, &is_pinned);
         let contacts = (0..n)
             .filter(|&i| !is_pinned[i] && collider.distance(&positions[i]) < s.contact_margin)
@@ -436,6 +447,7 @@ impl DrapeSolver {
             final_residual: residual,
             max_residual,
             max_penetration,
+            max_depth_before_projection,
             max_strain: self.max_strain(positions),
             contacts,
             contact_force,

@@ -76,8 +76,15 @@ pub struct SampleStats {
     /// Final residual: RMS over free vertices of net force over weight, `|f_i| / (m_i g)`
     /// (dimensionless; [`crate::DrapeStats::final_residual`]).
     pub residual: f64,
-    /// Deepest garment penetration into the body (metres, ≥ 0).
+    /// Deepest garment penetration into the body (metres, ≥ 0), after the solver's final
+    /// projection.
     pub max_penetration_m: f64,
+    /// Deepest vertex inside the body before that projection (metres, ≥ 0;
+    /// [`crate::DrapeStats::max_depth_before_projection`]): where the contact did not hold
+    /// the cloth out. `None` in datasets made before it was recorded (absent from their
+    /// manifests).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_depth_before_projection_m: Option<f64>,
     /// Largest edge strain (relative length change, dimensionless).
     pub max_strain: f64,
     /// Wall-clock time of the sample (milliseconds): the walk from the previous pose (or the

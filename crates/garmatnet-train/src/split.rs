@@ -471,6 +471,7 @@ mod tests {
                     iterations: 1,
                     residual: residual(k),
                     max_penetration_m: 0.0,
+                    max_depth_before_projection_m: None,
                     max_strain: 0.0,
                     wall_time_ms: 0.0,
                     converged: true,

@@ -103,6 +103,7 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
                 iterations: 1,
                 residual: 0.0,
                 max_penetration_m: 0.0,
+                max_depth_before_projection_m: Some(0.0),
                 max_strain: 0.0,
                 wall_time_ms: 0.0,
                 converged: true,
