@@ -68,19 +68,16 @@ impl DrapeEnergy<'_> {
         }
     }
 
-    /// The penalty energy of vertex `i` at distance `φ`: `k_c/2 (margin - φ)²` within the
-    /// margin, plus `k_c h³ / (3 ℓ)` at depth `h = -φ > 0` inside the collider when it hardens
-    /// (twice differentiable at the surface: the extra force and stiffness start at zero).
-    fn penalty_energy(&self, i: usize, distance: Real) -> Real {
-        let g = (self.margin - distance).max(0.0);
+    /// The hardening's energy at distance `φ`, added to the penalty's `k_c/2 (margin - φ)²`:
+    /// `k_c h³ / (3 ℓ)` at depth `h = -φ > 0` inside the collider, else 0 (so the energy stays
+    /// twice differentiable at the surface: the extra force and stiffness start at zero).
+    fn hardening_energy(&self, i: usize, distance: Real) -> Real {
         let h = self.depth(distance);
-        let k = self.contact_stiffness[i];
-        let hard = if h > 0.0 {
-            k * h * h * h / (3.0 * self.hardening)
+        if h > 0.0 {
+            self.contact_stiffness[i] * h * h * h / (3.0 * self.hardening)
         } else {
             0.0
-        };
-        0.5 * k * g * g + hard
+        }
     }
 
     /// The penalty's force on a contact: `k_c (margin - φ + h²/ℓ) ∇φ` (newtons, outward).
@@ -192,13 +189,8 @@ impl DrapeEnergy<'_> {
             let after = contact1.map_or(0.0, |c| self.margin - c.distance);
             delta += 0.5 * self.contact_stiffness[i] * (after - before) * (after + before);
             if self.hardening > 0.0 {
-                // The hardening term apart, so the quadratic's difference keeps its precision.
-                let hard = |c: Option<Contact>| {
-                    c.map_or(0.0, |c| {
-                        self.penalty_energy(i, c.distance)
-                            - 0.5 * self.contact_stiffness[i] * (self.margin - c.distance).powi(2)
-                    })
-                };
+                let hard =
+                    |c: Option<Contact>| c.map_or(0.0, |c| self.hardening_energy(i, c.distance));
                 delta += hard(contact1) - hard(contacts0[i]);
             }
         }
@@ -299,7 +291,7 @@ mod tests {
             soft.penalty_force(0, &outside),
             hard.penalty_force(0, &outside)
         );
-        assert_eq!(soft.penalty_energy(0, 0.001), hard.penalty_energy(0, 0.001));
+        assert_eq!(hard.hardening_energy(0, 0.001), 0.0);
         // 5 mm inside: 300 (8 mm + 25e-6 / 1e-4 m) = 77.4 N instead of 2.4 N.
         let inside = at(-0.005);
         assert_relative_eq!(soft.penalty_force(0, &inside).y, 2.4, max_relative = 1e-12);
