@@ -36,13 +36,14 @@ pub struct DrapeSettings {
     /// the largest contact loads of a draped shirt (~0.02 N per vertex) within 0.1 mm.
     pub min_contact_stiffness: Real,
     /// Hardening of the contact penalty inside the collider: length scale `ℓ` (metres) of
-    /// an extra energy `k h³ / (3ℓ)` at depth `h` below the surface (force `k h²/ℓ`,
-    /// stiffness `2k h/ℓ`, both zero at the surface, so the energy stays twice
-    /// differentiable). 0 turns it off. The plain penalty holds a draped shirt's weight
+    /// an extra energy `k h³ / (3ℓ)`, `h` the depth past 1 mm below the surface (force
+    /// `k h²/ℓ`, stiffness `2k h/ℓ`, both zero where it begins, so the energy stays twice
+    /// differentiable; shallower dips of Newton's steps are left to the plain penalty, which
+    /// pushes them back). 0 turns it off. The plain penalty holds a draped shirt's weight
     /// within 0.1 mm, but a stiff fabric wrapped around a moving arm pulls harder than that:
     /// Trim Fusible Rigid's sleeve settled 29 mm inside the arm before the final projection
     /// moved it out, and the walk snagged and tore the sleeve over the following frames.
-    /// Default 1e-4 (0.1 mm: 5 mm deep the penalty pushes 77 N instead of 2.4). Manifests
+    /// Default 1e-4 (0.1 mm: 5 mm deep the penalty pushes 50 N instead of 2.4). Manifests
     /// written before it existed read as 0, as they were made
     /// ([`crate::SequenceSettings::from_manifest`]).
     pub contact_hardening: Real,

@@ -483,7 +483,7 @@ fn a_frame_stepper_refuses_positions_it_cannot_step_from() {
 /// coarse shirt, three of seed 0's most extreme poses): the plain 300 N/m penalty lets it
 /// settle more than a centimetre inside the body before the final projection moves it out
 /// (16.3 mm measured); the penalty's hardening inside the body keeps it within a few
-/// millimetres (5.6 mm).
+/// millimetres (6.5 mm).
 #[test]
 fn the_penalty_hardening_keeps_a_stiff_fabric_from_sinking_into_the_body() {
     let (body, garment) = coarse();
