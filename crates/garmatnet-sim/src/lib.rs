@@ -44,7 +44,8 @@ pub use garment_drape::{
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, GROUND_TRUTH_REVISION, Manifest, MaterialEntry,
-    SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, sample_stem,
+    SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, revision_label,
+    sample_stem,
 };
 pub use motion::{
     MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,

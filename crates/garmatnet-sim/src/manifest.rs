@@ -240,7 +240,8 @@ impl Manifest {
 }
 
 /// A ground-truth revision for messages: the number, or what an unrecorded one means.
-pub(crate) fn revision_label(revision: Option<u32>) -> String {
+#[must_use]
+pub fn revision_label(revision: Option<u32>) -> String {
     match revision {
         Some(r) => r.to_string(),
         None => "unrecorded (made before datasets recorded it: revision 1, or 2 if made \

@@ -19,7 +19,7 @@ use garmatnet_core::{Material, Pose, Real, Vec3};
 use garmatnet_model::{Detail, GarMatNetModel, Predictor, PushOut, push_out, select_device};
 use garmatnet_sim::{
     DrapeSettings, FrameStepper, GROUND_TRUTH_REVISION, SequenceResume, SequenceSettings,
-    drape_sequence,
+    drape_sequence, revision_label,
 };
 use serde::{Deserialize, Serialize};
 
@@ -579,10 +579,7 @@ fn revision_note(dataset_revision: Option<u32>, simulated: bool) -> Option<Strin
             "the dataset's drapes are ground-truth revision {}, the simulator rows ran \
              revision {GROUND_TRUTH_REVISION}: where the two solvers differ, even the \
              converged row does not reproduce the stored drapes",
-            dataset_revision.map_or(
-                "unrecorded (made before revisions were recorded)".into(),
-                |r| r.to_string()
-            )
+            revision_label(dataset_revision)
         )
     })
 }
@@ -607,16 +604,12 @@ pub fn markdown(report: &BenchReport) -> String {
             if r.pareto { "✓" } else { "" }
         ));
     }
-    if !report.skipped.is_empty() {
-        md.push_str("\nNot measured:\n");
-        for s in &report.skipped {
-            md.push_str(&format!("- {s}\n"));
-        }
-    }
-    if !report.notes.is_empty() {
-        md.push_str("\nNotes:\n");
-        for s in &report.notes {
-            md.push_str(&format!("- {s}\n"));
+    for (title, items) in [("Not measured", &report.skipped), ("Notes", &report.notes)] {
+        if !items.is_empty() {
+            md.push_str(&format!("\n{title}:\n"));
+            for s in items {
+                md.push_str(&format!("- {s}\n"));
+            }
         }
     }
     md.push_str(&format!(
