@@ -390,7 +390,8 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
             "--resolution",
             "coarse",
         ])
-        .arg("--quiet")
+        // Not `--quiet`: progress goes to stderr, a pipe here, as lines.
+        .env("GARMATNET_PROGRESS_SECS", "0")
         .arg("--out")
         .arg(dir.path().join(out));
         match reuse {
@@ -408,6 +409,18 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
     assert!(
         stdout.contains("wrote 1 samples (2 already done, 2 of them copied from --reuse"),
         "{stdout}"
+    );
+    // Progress starts where the dataset stands, and reaches the end.
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert!(
+        lines.len() == 2
+            && lines[0].starts_with("samples 2/3 (66.7 %)")
+            && lines[0].ends_with("ETA unknown")
+            && lines[1].starts_with("samples 3/3 (100.0 %)")
+            // 5 Newton iterations do not settle a drape (`quick_solver`).
+            && lines[1].ends_with("ETA 0s  1 not converged (last: m0 p0)"),
+        "{stderr}"
     );
     let read = |path: std::path::PathBuf| std::fs::read(path);
     // Cotton Poplin was material 0 of `a` and is material 1 of `b`; the random fabric 1 and 2.

@@ -92,11 +92,24 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     .to_string();
     assert!(refused.contains("held_out_block"), "{refused}");
     assert!(!dir.join("all.safetensors").exists());
-    garmatnet(
-        &[&["train", "--out", "model.safetensors"][..], &small].concat(),
+    // Not `--quiet`: stderr is a pipe here, so progress comes as lines, one where each net
+    // starts and one where it ends (more only after a minute).
+    let trained = garmatnet(
+        &[
+            &["train", "--out", "model.safetensors"][..],
+            &small[..small.len() - 1],
+        ]
+        .concat(),
         dir,
     )?;
     assert!(dir.join("model.safetensors").exists() && dir.join("model.split.json").exists());
+    for net in ["fitting", "local"] {
+        assert!(
+            trained.contains(&format!("{net} epoch 0/3 (0.0 %), 0s elapsed, ETA unknown"))
+                && trained.contains(&format!("{net} epoch 3/3 (100.0 %)")),
+            "{trained}"
+        );
+    }
     // The model knows the fabrics it trained on (Cotton Poplin, Denim Heavy, Silk Chiffon):
     // `drape` warns for a fabric outside their range, and only then.
     let drape = |material: &str, out: &str| {

@@ -1,7 +1,7 @@
 //! `garmatnet simulate`: generate a ground-truth dataset with the mass-spring solver.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -10,10 +10,10 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, Manifest, MotionGenerator, MotionPace,
-    SequenceSettings, Shard, generate_dataset, manifest_path,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, GenerateEvent, Manifest, MotionGenerator,
+    MotionPace, SequenceSettings, Shard, generate_dataset, manifest_path,
 };
-use indicatif::{ProgressBar, ProgressStyle};
+use garmatnet::train::Progress;
 
 /// Drape the T-shirt for every (material, pose) pair and write a dataset directory.
 #[derive(Debug, Args)]
@@ -175,29 +175,37 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let shard_materials = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
         .count();
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new((shard_materials * config.poses.len()) as u64)
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} samples  {elapsed} elapsed, ETA {eta}  {msg}",
-        )
-        .expect("a valid progress template"),
+    let progress = Progress::stderr(
+        (shard_materials * config.poses.len()) as u64,
+        "samples",
+        "{bar:40} {pos}/{len} samples  {elapsed} elapsed, ETA {eta}  {msg}",
+        args.quiet,
     );
+    let not_converged = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
     let report = generate_dataset(
         &config,
-        &|done| {
-            bar.inc(1);
-            if !done.converged {
-                bar.set_message(format!("m{} p{} not converged", done.material, done.pose));
+        &|event| match event {
+            GenerateEvent::Started {
+                shard_samples,
+                done,
+            } => {
+                progress.start_at(shard_samples as u64, done as u64);
+            }
+            GenerateEvent::Sample(sample) => {
+                if !sample.converged {
+                    let n = not_converged.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress.set_message(&format!(
+                        "{n} not converged (last: m{} p{})",
+                        sample.material, sample.pose
+                    ));
+                }
+                progress.inc(1);
             }
         },
         &|| stop.load(Ordering::Relaxed),
     );
-    bar.finish_and_clear();
+    progress.finish();
     let report = match report {
         Err(e) if is_pose_mismatch(&e) && args.poses.parse::<usize>().is_ok() => {
             return Err(e).context(format!(

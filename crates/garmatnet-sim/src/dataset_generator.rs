@@ -188,6 +188,22 @@ pub struct SampleDone {
     pub wall_time_ms: f64,
 }
 
+/// What [`generate_dataset`] tells its progress callback.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum GenerateEvent {
+    /// Once, before anything is draped: the samples of this shard in all, and how many of
+    /// them are already on disk (finished by an earlier run, or just copied from
+    /// [`GenerateConfig::reuse`]), so progress can start where the dataset stands.
+    Started {
+        /// Samples of this shard in all.
+        shard_samples: usize,
+        /// Samples of this shard already on disk.
+        done: usize,
+    },
+    /// A sample was draped and written.
+    Sample(SampleDone),
+}
+
 /// What a generation run did.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct GenerateReport {
@@ -245,7 +261,8 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
     })
 }
 
-/// Generates (or resumes) the dataset. `on_sample` is called after each written sample;
+/// Generates (or resumes) the dataset. `on_progress` hears [`GenerateEvent::Started`] once,
+/// then [`GenerateEvent::Sample`] after each written sample;
 /// `should_stop` is polled between samples and stops the run with [`Error::Interrupted`]
 /// (finished samples stay on disk).
 ///
@@ -254,7 +271,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
 /// existing dataset in `out`, unwritable directory); solver errors.
 pub fn generate_dataset(
     config: &GenerateConfig,
-    on_sample: &(dyn Fn(SampleDone) + Sync),
+    on_progress: &(dyn Fn(GenerateEvent) + Sync),
     should_stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<GenerateReport> {
     let started = Instant::now();
@@ -277,6 +294,10 @@ pub fn generate_dataset(
                 .count()
         })
         .sum();
+    on_progress(GenerateEvent::Started {
+        shard_samples,
+        done: skipped,
+    });
 
     let run_material = |m: usize| -> Result<(usize, usize, f64)> {
         let n_poses = config.poses.len();
@@ -314,12 +335,12 @@ pub fn generate_dataset(
             written += 1;
             failed += usize::from(!stats.converged);
             time += sample_ms;
-            on_sample(SampleDone {
+            on_progress(GenerateEvent::Sample(SampleDone {
                 material: m,
                 pose: p,
                 converged: stats.converged,
                 wall_time_ms: sample_ms,
-            });
+            }));
             last = Instant::now();
             Ok(())
         };

@@ -30,8 +30,8 @@ pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
 pub use dataset_generator::{
-    BODY_NAME, GenerateConfig, GenerateReport, SampleDeriver, SampleDone, dataset_spec,
-    generate_dataset,
+    BODY_NAME, GenerateConfig, GenerateEvent, GenerateReport, SampleDeriver, SampleDone,
+    dataset_spec, generate_dataset,
 };
 pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
 pub use drape_settings::{DrapeSettings, FactorPrecision};

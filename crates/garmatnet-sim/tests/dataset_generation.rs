@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use garmatnet_core::{Material, Resolution, SmoothingSettings};
 use garmatnet_sim::{
-    DrapeSettings, Error, GenerateConfig, Manifest, MergeReport, MotionGenerator, SequenceSettings,
-    Shard, check, generate_dataset, merge_shards,
+    DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport, MotionGenerator,
+    SequenceSettings, Shard, check, generate_dataset, merge_shards,
 };
 
 fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
@@ -80,16 +80,39 @@ fn killed_runs_resume_to_the_same_dataset_and_threads_do_not_matter() -> anyhow:
     let stop = || done.load(Ordering::SeqCst) >= 4;
     let err = generate_dataset(
         &config(&killed, 1, Shard::new(0, 1)?),
-        &|_| {
-            done.fetch_add(1, Ordering::SeqCst);
+        &|event| {
+            if matches!(event, GenerateEvent::Sample(_)) {
+                done.fetch_add(1, Ordering::SeqCst);
+            }
         },
         &stop,
     )
     .unwrap_err();
     assert!(matches!(err, Error::Interrupted), "{err}");
-    let resumed = generate_dataset(&config(&killed, 2, Shard::new(0, 1)?), &|_| {}, &|| false)?;
+    // Progress starts where the dataset stands: 4 of 9 on disk, then the 5 written.
+    let events = std::sync::Mutex::new(Vec::new());
+    let resumed = generate_dataset(
+        &config(&killed, 2, Shard::new(0, 1)?),
+        &|event| events.lock().unwrap().push(event),
+        &|| false,
+    )?;
     assert_eq!(resumed.skipped, 4);
     assert_eq!(resumed.written, 5);
+    let events = events.into_inner().unwrap();
+    assert_eq!(
+        events.first(),
+        Some(&GenerateEvent::Started {
+            shard_samples: 9,
+            done: 4
+        })
+    );
+    assert_eq!(
+        events[1..]
+            .iter()
+            .filter(|e| matches!(e, GenerateEvent::Sample(_)))
+            .count(),
+        5
+    );
     assert_eq!(
         arrays(&killed),
         reference,

@@ -328,7 +328,7 @@ pub fn train_baseline(
             local,
         });
     }
-    progress.finish_and_clear();
+    progress.finish();
     let manifest = BaselineManifest {
         version: BASELINE_VERSION,
         dataset_hash: data.dataset_hash().to_owned(),

@@ -33,6 +33,7 @@ mod figures;
 pub mod harness;
 mod pca;
 pub mod plots;
+pub mod progress;
 pub mod report;
 pub mod showcase;
 pub mod split;
@@ -55,6 +56,7 @@ pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
+pub use progress::Progress;
 pub use report::{
     ErrorStats, FrameComparison, MaterialSupport, ModelSizes, PartErrors, PenetrationStats, Report,
     SampleErrors, TestParts, Timing,

@@ -449,7 +449,7 @@ pub fn train(
     let Outcome::Done(local_net, local_progress) = outcome else {
         return Ok(summary);
     };
-    progress.finish_and_clear();
+    progress.finish();
     summary.local = Some(NetSummary::from(&local_progress));
 
     let provenance = TrainingProvenance {

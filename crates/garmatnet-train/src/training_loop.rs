@@ -5,7 +5,6 @@
 //! Every epoch's shuffle and dropout seed derive from the RNG state saved in the checkpoint,
 //! so a resumed run repeats an uninterrupted one on the CPU.
 
-use std::io::IsTerminal;
 use std::time::Instant;
 
 use burn::module::Module;
@@ -14,12 +13,12 @@ use burn::optim::{AdamConfig, AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
 use garmatnet_core::{POSE_DIM, SplitMix64};
 use garmatnet_model::{BaselineNet, GarMatNet, MATERIAL_DIM, OutputNormalizer};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CheckpointDir, CheckpointState, NetProgress};
 use crate::dataset_loader::LoadedSamples;
 use crate::error::{Error, Result};
+use crate::progress::Progress;
 
 /// A training loss above this counts as divergence even while finite: targets are normalised
 /// to unit variance, so a working net's loss is of order 1 and an exploding one passes 1e6
@@ -38,19 +37,15 @@ pub(crate) fn initial_progress(seed: u64) -> NetProgress {
     }
 }
 
-/// An epoch progress bar on stderr (epoch, losses, best, ETA); hidden when `quiet` or when
-/// stderr is not a terminal.
-pub(crate) fn progress_bar(max_epochs: usize, quiet: bool) -> ProgressBar {
-    if quiet || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(max_epochs as u64);
-    if let Ok(style) =
-        ProgressStyle::with_template("{prefix:>8} [{bar:30}] {pos}/{len} epochs  {msg}  ETA {eta}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
+/// Epoch progress on stderr (epoch, losses, best, ETA): a bar on a terminal, a line a
+/// minute in a log ([`crate::progress`]), nothing when `quiet`.
+pub(crate) fn progress_bar(max_epochs: usize, quiet: bool) -> Progress {
+    Progress::stderr(
+        max_epochs as u64,
+        "epoch",
+        "{prefix:>8} [{bar:30}] {pos}/{len} epochs  {msg}  ETA {eta}",
+        quiet,
+    )
 }
 
 /// The smallest per-coordinate std (metres) the trainer stores: the model crate's
@@ -304,7 +299,7 @@ pub(crate) fn fit_net<M: Trainable>(
     settings: &LoopSettings,
     mut checkpoint: Option<(&CheckpointDir, &mut CheckpointState)>,
     budget: &mut Option<usize>,
-    progress: &ProgressBar,
+    progress: &Progress,
 ) -> Result<Outcome<M>> {
     let device = sets.train.poses.device();
     let mut optimizer: ModuleOptimizer = if settings.weight_decay > 0.0 {
@@ -330,9 +325,8 @@ pub(crate) fn fit_net<M: Trainable>(
             p
         }
     };
-    progress.set_prefix(settings.name.clone());
-    progress.set_length(settings.max_epochs as u64);
-    progress.set_position(state.epoch as u64);
+    progress.set_prefix(&settings.name);
+    progress.start_at(settings.max_epochs as u64, state.epoch as u64);
     let n = sets.train.len;
     while state.epoch < settings.max_epochs && state.since_best < settings.patience {
         if *budget == Some(0) {
@@ -398,12 +392,14 @@ pub(crate) fn fit_net<M: Trainable>(
         if let Some(b) = budget.as_mut() {
             *b -= 1;
         }
-        progress.set_position(state.epoch as u64);
-        progress.set_message(format!(
+        progress.set_message(&format!(
             "train {train_loss:.4}  dev {dev_loss:.4}  best {:.4} @{}",
             state.best_dev, state.best_epoch
         ));
+        progress.set_position(state.epoch as u64);
     }
+    // The net's last epoch, which a log's interval may have skipped.
+    progress.line();
     Ok(Outcome::Done(best.valid(), state))
 }
 
@@ -510,15 +506,9 @@ mod tests {
             seed: 1,
         };
         let t = Instant::now();
-        let Outcome::Done(_, p) = fit_net(
-            net,
-            &sets,
-            &settings,
-            None,
-            &mut None,
-            &ProgressBar::hidden(),
-        )
-        .unwrap() else {
+        let Outcome::Done(_, p) =
+            fit_net(net, &sets, &settings, None, &mut None, &Progress::hidden()).unwrap()
+        else {
             unreachable!()
         };
         let per_step = p.seconds / (3.0 * (rows / 32) as f64);
