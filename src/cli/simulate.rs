@@ -67,7 +67,8 @@ pub struct SimulateArgs {
     /// solver settings unless `--solver` is given.
     #[arg(long, value_name = "DIR")]
     pub reuse: Vec<PathBuf>,
-    /// No progress bar.
+    /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
+    /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     #[arg(long)]
     pub quiet: bool,
 }

@@ -100,7 +100,8 @@ pub struct TrainOptions {
     /// Train on an incomplete dataset (missing samples are skipped).
     #[arg(long)]
     pub allow_incomplete: bool,
-    /// No progress bar.
+    /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
+    /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     #[arg(long)]
     pub quiet: bool,
 }

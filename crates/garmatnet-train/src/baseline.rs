@@ -72,7 +72,8 @@ pub struct BaselineConfig {
     pub allow_incomplete_dataset: bool,
     /// Compute device.
     pub device: String,
-    /// No progress bar.
+    /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
+    /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     pub quiet: bool,
 }
 

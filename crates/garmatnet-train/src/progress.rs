@@ -224,21 +224,23 @@ impl Progress {
         }
     }
 
-    /// Starts (or restarts, for the next stage) at `position` of `length`: the rate behind
-    /// the ETA is measured from here, so a resumed run does not count the units it found
-    /// done as done in no time. A log gets a line at once.
+    /// Starts (or restarts, for the next stage) at `position` of `length`, with no message:
+    /// the rate behind the ETA is measured from here, so a resumed run does not count the
+    /// units it found done as done in no time. A log gets a line at once.
     pub fn start_at(&self, length: u64, position: u64) {
         match &self.mode {
             Mode::Hidden => {}
             Mode::Bar(b) => {
                 b.set_length(length);
                 b.set_position(position);
+                b.set_message("");
                 b.reset_eta();
             }
             Mode::Log(state) => {
                 let mut s = state.lock().unwrap_or_else(PoisonError::into_inner);
                 s.length = length;
                 s.position = position;
+                s.message.clear();
                 s.rate_from = (position, Instant::now());
                 s.write_line();
             }
@@ -252,6 +254,22 @@ impl Progress {
             let mut s = state.lock().unwrap_or_else(PoisonError::into_inner);
             if s.dirty {
                 s.write_line();
+            }
+        }
+    }
+
+    /// The stage is over where it stands (an early stop ends a training before its last
+    /// epoch): its length becomes its position, and a log gets that line.
+    pub fn end_stage(&self) {
+        match &self.mode {
+            Mode::Hidden => {}
+            Mode::Bar(b) => b.set_length(b.position()),
+            Mode::Log(state) => {
+                let mut s = state.lock().unwrap_or_else(PoisonError::into_inner);
+                if s.dirty || s.length != s.position {
+                    s.length = s.position;
+                    s.write_line();
+                }
             }
         }
     }
@@ -382,6 +400,27 @@ mod tests {
             every.contents().lines().count(),
             3,
             "a zero interval: a line per update"
+        );
+    }
+
+    #[test]
+    fn an_early_stop_ends_the_stage_where_it_stands() {
+        let log = SharedLog::default();
+        let progress = Progress::to_log(log.clone(), Duration::from_secs(3600), 0, "epoch");
+        progress.set_prefix("local");
+        progress.start_at(400, 0);
+        progress.set_position(250);
+        progress.end_stage();
+        progress.end_stage(); // nothing new: no second line
+        let text = log.contents();
+        assert_eq!(text.lines().count(), 2, "{text}");
+        assert!(
+            text.lines()
+                .last()
+                .unwrap_or_default()
+                .starts_with("local epoch 250/250 (100.0 %)")
+                && text.ends_with("ETA 0s\n"),
+            "{text}"
         );
     }
 

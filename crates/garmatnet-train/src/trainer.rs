@@ -85,7 +85,8 @@ pub struct TrainConfig {
     pub allow_incomplete_dataset: bool,
     /// Compute device: `cpu`, `gpu` or `auto`.
     pub device: String,
-    /// No progress bar.
+    /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
+    /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     pub quiet: bool,
 }
 

@@ -398,8 +398,15 @@ pub(crate) fn fit_net<M: Trainable>(
         ));
         progress.set_position(state.epoch as u64);
     }
-    // The net's last epoch, which a log's interval may have skipped.
-    progress.line();
+    // The net's last epoch (a log's interval may have skipped it), and no ETA for the epochs
+    // an early stop leaves untrained.
+    if state.epoch < settings.max_epochs {
+        progress.set_message(&format!(
+            "train {:.4}  best {:.4} @{}  stopped early: no better development loss in {} epochs",
+            state.last_train, state.best_dev, state.best_epoch, settings.patience
+        ));
+    }
+    progress.end_stage();
     Ok(Outcome::Done(best.valid(), state))
 }
 
