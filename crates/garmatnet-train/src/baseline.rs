@@ -206,7 +206,7 @@ pub fn train_baseline(
         BaselineNetConfig::new(n, config.pose_hidden, config.hidden).with_dropout(config.dropout);
     net.validate()?;
     let _lock = crate::dataset_loader::create_locked_dir(out_dir, "baseline")?;
-    let progress = crate::training_loop::progress_bar(config.max_epochs, config.quiet);
+    let progress = crate::training_loop::epoch_progress(config.max_epochs, config.quiet);
     let mut entries = Vec::new();
     for &m in &split.test_materials {
         let name = data.spec().materials[m].name.clone();

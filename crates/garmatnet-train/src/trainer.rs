@@ -23,8 +23,8 @@ use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
 use crate::error::{Error, Result};
 use crate::split::SplitConfig;
 use crate::training_loop::{
-    LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, fit_net, fit_normalizer,
-    initial_progress, progress_bar,
+    LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, epoch_progress, fit_net,
+    fit_normalizer, initial_progress,
 };
 
 /// Everything that defines a GarMatNet training run (CLI options map onto these fields).
@@ -345,7 +345,7 @@ pub fn train(
     }
     split.write(&split_file)?;
 
-    let progress = progress_bar(config.max_epochs, config.quiet);
+    let progress = epoch_progress(config.max_epochs, config.quiet);
     let ad = device.clone().autodiff();
     let mut budget = options.stop_after_epochs;
     let mut summary = TrainSummary {
