@@ -3,11 +3,15 @@
 //! On a terminal a [`Progress`] is an `indicatif` bar. Anywhere else — a batch job's log
 //! (Slurm, Kubernetes), `nohup`, CI — `indicatif` draws nothing, and a five-hour `simulate`
 //! or a half-hour `train` would say nothing until it ends; there a [`Progress`] writes a
-//! plain line instead, at most once every [`log_interval`] (and whenever a stage ends):
+//! plain line instead: one where each stage starts and ends, and between them at most one
+//! every [`log_interval`] (lines from a dataset resumed under `nohup`, and from a toy
+//! training that stopped early):
 //!
 //! ```text
-//! samples 2406/6000 (40.1 %), 1h 12m elapsed, ETA 1h 48m  3 not converged
-//! fitting epoch 57/400 (14.2 %), 2m 10s elapsed, ETA 13m 03s  train 0.0412  dev 0.0398  best 0.0390 @55
+//! samples 1134/6000 (18.9 %), 0s elapsed, ETA unknown
+//! samples 1191/6000 (19.9 %), 3m 09s elapsed, ETA 4h 25m  2 not converged (last: m2 p191)
+//! fitting epoch 3/300 (1.0 %), 0s elapsed, ETA 1s  train 1.1139  dev 4.4037  best 3.8289 @2
+//! fitting epoch 3/3 (100.0 %), 0s elapsed, ETA 0s  train 1.1139  best 3.8289 @2  stopped early: no better development loss in 1 epochs
 //! ```
 //!
 //! The rate behind the ETA counts only the work of this run ([`Progress::start_at`]): a
