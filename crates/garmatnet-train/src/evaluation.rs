@@ -6,18 +6,20 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use burn::prelude::*;
-use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, SignedDistance, Vec3, decompose};
-use garmatnet_model::{
-    Detail, GarMatNetModel, OutputNormalizer, Predictor, push_out, select_device,
-};
+use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
+use garmatnet_model::{Detail, GarMatNetModel, Predictor, push_out, select_device};
 use serde::{Deserialize, Serialize};
 
 use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
+use crate::fabric_reference::{fabric_lookup, material_support};
+use crate::prediction_errors::{
+    VertexErrors, error_stats, load_model, predict_baseline, predict_garmatnet, vertex_errors,
+};
 use crate::report::{
-    ErrorStats, FabricLookup, FrameComparison, MaterialSupport, ModelSizes, PartErrors,
-    PenetrationStats, Report, SampleErrors, TestParts, Timing, spread_mm,
+    ErrorStats, FrameComparison, ModelSizes, PenetrationStats, Report, SampleErrors, TestParts,
+    Timing,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -64,31 +66,6 @@ pub struct EvalInputs {
     pub compare_model: Option<PathBuf>,
     /// Where `report.json`, `report.md` and the figures go (created if needed).
     pub out_dir: PathBuf,
-}
-
-/// Per-vertex errors (metres) of one prediction.
-#[derive(Clone)]
-pub(crate) struct VertexErrors {
-    pub(crate) fitting: Vec<f64>,
-    pub(crate) local: Vec<f64>,
-    pub(crate) whole: Vec<f64>,
-}
-
-impl VertexErrors {
-    pub(crate) fn means_mm(&self) -> PartErrors {
-        let mean = |v: &[f64]| 1e3 * v.iter().sum::<f64>() / v.len().max(1) as f64;
-        PartErrors {
-            fitting_mm: mean(&self.fitting),
-            local_mm: mean(&self.local),
-            whole_mm: mean(&self.whole),
-        }
-    }
-}
-
-/// A prediction: world-frame displacements (metres) per vertex.
-pub(crate) struct Prediction {
-    pub(crate) d_fitting: Vec<Vec3>,
-    pub(crate) d_local: Vec<Vec3>,
 }
 
 /// Evaluates `inputs.model` (and the baseline / second model) on the model's test split and
@@ -274,291 +251,10 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     Ok(report)
 }
 
-/// Each test material against the range of the materials in the split's training set.
-fn material_support(data: &TrainingDataset, split: &Split) -> Vec<MaterialSupport> {
-    let spec = data.spec();
-    let omega = |m: usize| spec.materials[m].omega_normalized;
-    let Some(range) = split.material_range(spec) else {
-        return Vec::new();
-    };
-    split
-        .test_materials
-        .iter()
-        .map(|&m| MaterialSupport {
-            material: spec.materials[m].name.clone(),
-            outside: range.outside(&omega(m)),
-        })
-        .collect()
-}
-
-/// The training fabrics' true drapes as predictions of the `comparison` samples (see
-/// [`FabricLookup`]); `None` when no training fabric was draped at those poses.
-fn fabric_lookup(
-    data: &TrainingDataset,
-    split: &Split,
-    comparison: &[SampleKey],
-) -> Result<Option<FabricLookup>> {
-    let spec = data.spec();
-    let training: Vec<usize> = (0..spec.materials.len())
-        .filter(|m| !split.test_materials.contains(m) && !split.dev_materials.contains(m))
-        .collect();
-    let have = |material: usize, pose: usize| {
-        data.records()
-            .binary_search_by_key(&(material, pose), |r| (r.material, r.pose))
-            .is_ok()
-    };
-    let omega = |m: usize| spec.materials[m].omega_normalized;
-    let mut nearest_to = Vec::new();
-    let mut targets = Vec::new();
-    for &target in &split.test_materials {
-        let Some(nearest) =
-            nearest_material(&omega(target), training.iter().map(|&m| (m, omega(m))))
-        else {
-            return Ok(None);
-        };
-        nearest_to.push((
-            spec.materials[target].name.clone(),
-            spec.materials[nearest].name.clone(),
-        ));
-        targets.push((target, nearest));
-    }
-    let mut poses: Vec<usize> = comparison
-        .iter()
-        .filter(|k| split.test_materials.contains(&k.material))
-        .map(|k| k.pose)
-        .collect();
-    poses.sort_unstable();
-    poses.dedup();
-    let (mut nearest_errors, mut best_errors) = (Vec::new(), Vec::new());
-    for pose in poses {
-        // Every training fabric's drape at this pose, read and decomposed once for all targets.
-        let others = training
-            .iter()
-            .filter(|&&m| have(m, pose))
-            .map(|&m| {
-                let other = data.truth(SampleKey { material: m, pose })?;
-                Ok((m, truth_as_prediction(&other)?))
-            })
-            .collect::<Result<Vec<(usize, Prediction)>>>()?;
-        for &(target, nearest) in &targets {
-            let key = SampleKey {
-                material: target,
-                pose,
-            };
-            if !comparison.contains(&key) {
-                continue;
-            }
-            let truth = data.truth(key)?;
-            let mut best: Option<(f64, VertexErrors)> = None;
-            for (m, other) in &others {
-                let errors = vertex_errors(&truth, other);
-                if *m == nearest {
-                    nearest_errors.push(errors.clone());
-                }
-                let whole: f64 = errors.whole.iter().sum();
-                if best.as_ref().is_none_or(|(b, _)| whole < *b) {
-                    best = Some((whole, errors));
-                }
-            }
-            let Some((_, best)) = best else {
-                return Ok(None);
-            };
-            best_errors.push(best);
-        }
-    }
-    if nearest_errors.len() != best_errors.len() || best_errors.is_empty() {
-        return Ok(None);
-    }
-    Ok(Some(FabricLookup {
-        nearest_material: error_stats(nearest_errors.iter()),
-        nearest_to,
-        best_material: error_stats(best_errors.iter()),
-    }))
-}
-
-/// The index of the candidate `(material, ω)` nearest to `target` (Euclidean; the first on a
-/// tie), or `None` without candidates.
-fn nearest_material(
-    target: &[f64; MATERIAL_DIM],
-    candidates: impl Iterator<Item = (usize, [f64; MATERIAL_DIM])>,
-) -> Option<usize> {
-    let distance = |w: &[f64; MATERIAL_DIM]| {
-        w.iter()
-            .zip(target)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-    };
-    candidates
-        .map(|(m, w)| (m, distance(&w)))
-        .fold(None, |best: Option<(usize, f64)>, (m, d)| match best {
-            Some((_, bd)) if bd <= d => best,
-            _ => Some((m, d)),
-        })
-        .map(|(m, _)| m)
-}
-
-/// Another sample's true drape, as the displacements a model would predict (core's
-/// decomposition of it).
-///
-/// # Errors
-/// As [`garmatnet_core::decompose`]: arrays of different lengths or non-finite values.
-fn truth_as_prediction(other: &crate::dataset_loader::SampleTruth) -> Result<Prediction> {
-    let parts = decompose(&other.simulated, &other.smoothed, &other.body_points)?;
-    Ok(Prediction {
-        d_fitting: parts.d_fitting,
-        d_local: parts.d_local,
-    })
-}
-
 fn frame_name(frame: DisplacementFrame) -> &'static str {
     match frame {
         DisplacementFrame::World => "world",
         DisplacementFrame::Canonical => "canonical",
-    }
-}
-
-fn load_model(path: &Path, data: &TrainingDataset, device: &Device) -> Result<GarMatNetModel> {
-    let model = GarMatNetModel::load(path, device)?;
-    model.ensure_template(data.template_hash(), data.vertex_count())?;
-    Ok(model)
-}
-
-/// `[B, 72]` and `[B, 6]` input tensors of `keys`.
-fn input_tensors(
-    data: &TrainingDataset,
-    keys: &[SampleKey],
-    device: &Device,
-) -> (Tensor<2>, Tensor<2>) {
-    let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
-    let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
-    for &k in keys {
-        let (p, m) = data.inputs(k);
-        poses.extend(p);
-        materials.extend(m);
-    }
-    let b = keys.len();
-    (
-        Tensor::from_data(TensorData::new(poses, [b, POSE_DIM]), device),
-        Tensor::from_data(TensorData::new(materials, [b, MATERIAL_DIM]), device),
-    )
-}
-
-fn to_f32(t: Tensor<2>) -> Vec<f32> {
-    t.into_data()
-        .try_into_vec_as::<f32>()
-        .unwrap_or_else(|e| panic!("reading a tensor back from the device failed: {e:?}"))
-}
-
-/// Denormalised world-frame displacements of each row of `fitting` / `local` (`[B, 3n]`).
-fn assemble(
-    data: &TrainingDataset,
-    keys: &[SampleKey],
-    fitting: &[f32],
-    local: &[f32],
-    norms: (&OutputNormalizer, &OutputNormalizer),
-    frame: DisplacementFrame,
-) -> Vec<Prediction> {
-    let n3 = 3 * data.vertex_count();
-    keys.iter()
-        .enumerate()
-        .map(|(b, &key)| {
-            let transforms = data
-                .skeleton()
-                .skinning_transforms(&data.spec().poses[key.pose]);
-            let anchors = &data.garment().anchors;
-            let field = |raw: &[f32], norm: &OutputNormalizer| -> Vec<Vec3> {
-                let d = norm.denormalize(&raw[b * n3..(b + 1) * n3]);
-                d.chunks_exact(3)
-                    .zip(anchors)
-                    .map(|(c, a)| a.from_frame(&Vec3::new(c[0], c[1], c[2]), frame, &transforms))
-                    .collect()
-            };
-            Prediction {
-                d_fitting: field(fitting, norms.0),
-                d_local: field(local, norms.1),
-            }
-        })
-        .collect()
-}
-
-pub(crate) fn predict_garmatnet(
-    model: &GarMatNetModel,
-    data: &TrainingDataset,
-    keys: &[SampleKey],
-    device: &Device,
-) -> Result<Vec<Prediction>> {
-    let (p, m) = input_tensors(data, keys, device);
-    let fitting = to_f32(model.fitting.forward(p.clone(), m.clone()));
-    let local = to_f32(model.local.forward(p, m));
-    Ok(assemble(
-        data,
-        keys,
-        &fitting,
-        &local,
-        (&model.fitting_norm, &model.local_norm),
-        model.displacement_frame(),
-    ))
-}
-
-pub(crate) fn predict_baseline(
-    m: &crate::baseline::BaselineMaterial,
-    data: &TrainingDataset,
-    keys: &[SampleKey],
-    device: &Device,
-) -> Result<Vec<Prediction>> {
-    let (p, _) = input_tensors(data, keys, device);
-    let fitting = to_f32(m.fitting.forward(p.clone()));
-    let local = to_f32(m.local.forward(p));
-    Ok(assemble(
-        data,
-        keys,
-        &fitting,
-        &local,
-        (&m.fitting_norm, &m.local_norm),
-        DisplacementFrame::World,
-    ))
-}
-
-/// Per-vertex errors (metres) of a prediction against the truth.
-fn vertex_errors(truth: &crate::dataset_loader::SampleTruth, pred: &Prediction) -> VertexErrors {
-    let n = truth.body_points.len();
-    let mut e = VertexErrors {
-        fitting: Vec::with_capacity(n),
-        local: Vec::with_capacity(n),
-        whole: Vec::with_capacity(n),
-    };
-    for i in 0..n {
-        let body = truth.body_points[i];
-        let smooth = body + pred.d_fitting[i];
-        let garment = body + (pred.d_fitting[i] + pred.d_local[i]);
-        let true_local = truth.simulated[i] - truth.smoothed[i];
-        e.fitting.push((smooth - truth.smoothed[i]).norm());
-        e.local.push((pred.d_local[i] - true_local).norm());
-        e.whole.push((garment - truth.simulated[i]).norm());
-    }
-    e
-}
-
-fn error_stats<'a>(errors: impl Iterator<Item = &'a VertexErrors>) -> ErrorStats {
-    let (mut fitting, mut local, mut whole) = (0.0, 0.0, Vec::new());
-    let mut samples = 0;
-    let mut vertices = 0usize;
-    for e in errors {
-        samples += 1;
-        vertices += e.whole.len();
-        fitting += e.fitting.iter().sum::<f64>();
-        local += e.local.iter().sum::<f64>();
-        whole.extend_from_slice(&e.whole);
-    }
-    let (whole_mm, whole_p95_mm, whole_max_mm) = spread_mm(&mut whole);
-    let v = vertices.max(1) as f64;
-    ErrorStats {
-        fitting_mm: 1e3 * fitting / v,
-        local_mm: 1e3 * local / v,
-        whole_mm,
-        whole_max_mm,
-        whole_p95_mm,
-        samples,
     }
 }
 
@@ -1017,21 +713,6 @@ mod tests {
         for f in &report.files {
             assert!(out.join(f).exists(), "{f} missing");
         }
-    }
-
-    #[test]
-    fn the_nearest_material_is_the_closest_candidate_and_the_first_on_a_tie() {
-        let target = [0.5; MATERIAL_DIM];
-        let at = |x: f64| {
-            let mut w = [0.5; MATERIAL_DIM];
-            w[2] = x;
-            w
-        };
-        let candidates = [(7, at(0.9)), (3, at(0.6)), (9, at(0.4)), (1, at(0.45))];
-        assert_eq!(nearest_material(&target, candidates.into_iter()), Some(1));
-        let tie = [(4, at(0.75)), (2, at(0.25))];
-        assert_eq!(nearest_material(&target, tie.into_iter()), Some(4));
-        assert_eq!(nearest_material(&target, std::iter::empty()), None);
     }
 
     #[test]

@@ -26,8 +26,8 @@ use serde::{Deserialize, Serialize};
 use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
-use crate::evaluation::predict_baseline;
 use crate::plots::{ParetoPoint, pareto_chart};
+use crate::prediction_errors::predict_baseline;
 use crate::split::Split;
 use crate::trainer::split_path;
 
