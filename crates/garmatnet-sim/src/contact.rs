@@ -1,7 +1,10 @@
 //! Cloth-body contact helpers: an empty collider, smooth lagged Coulomb friction on a
-//! contact vertex, and the final projection out of the collider.
+//! contact vertex and on all the contacts of one drape, and the final projection out of the
+//! collider.
 
 use garmatnet_core::{Mat3, Real, SignedDistance, Vec3};
+
+use crate::drape_energy::{Contact, DrapeEnergy};
 
 /// A collider that is nowhere: for cloth that only hangs from its pins.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -102,6 +105,92 @@ pub(crate) fn push_out(
         deepest = deepest.max(-collider.distance(x));
     }
     deepest
+}
+
+/// The friction of one drape: the starting contacts' lagged normals and `μ λ`, and the
+/// anchors.
+pub(crate) struct Friction<'a> {
+    coefficient: Real,
+    slip: Real,
+    anchors: &'a [Vec3],
+    lagged: Vec<Option<FrictionContact>>,
+}
+
+impl<'a> Friction<'a> {
+    /// Friction measured from `anchors`, with no contact lagged yet.
+    pub(crate) fn new(coefficient: Real, slip: Real, anchors: &'a [Vec3]) -> Self {
+        Self {
+            coefficient,
+            slip,
+            anchors,
+            lagged: vec![None; anchors.len()],
+        }
+    }
+
+    /// Gives friction to every contact of the starting positions (`contacts` are their
+    /// contacts, `conservative` their energy gradient, friction not included), lagging its
+    /// normal and `μ λ` there for the whole drape.
+    ///
+    /// The normal force `λ` is the load the body carries, `n · ∇(E - penalty)` (springs and
+    /// gravity pressing the vertex in), not the penalty's own force: the two agree at
+    /// equilibrium, but a warm start carried with the body sits a fraction of a millimetre
+    /// off it, where the stiff penalty's force is hundreds of times the vertex's weight and
+    /// friction lagged at it glues the shirt in place.
+    pub(crate) fn lag(
+        &mut self,
+        energy: &DrapeEnergy<'_>,
+        contacts: &[Option<Contact>],
+        conservative: &[Vec3],
+    ) {
+        if self.coefficient == 0.0 {
+            return;
+        }
+        for (i, (c, l)) in contacts.iter().zip(self.lagged.iter_mut()).enumerate() {
+            *l = c.map(|c| {
+                let normal = c.normal();
+                let load = (conservative[i] + energy.penalty_force(i, &c)).dot(&normal);
+                FrictionContact {
+                    normal,
+                    weight: self.coefficient * load.max(0.0),
+                }
+            });
+        }
+    }
+
+    /// Adds `∇D` at `x` to `gradient`; returns the total friction force on the cloth.
+    pub(crate) fn add_to_gradient(&self, x: &[Vec3], gradient: &mut [Vec3]) -> Vec3 {
+        let mut total = Vec3::zeros();
+        for (i, l) in self.lagged.iter().enumerate() {
+            if let Some(l) = l {
+                let f = l.force(&(x[i] - self.anchors[i]), self.slip);
+                gradient[i] -= f;
+                total += f;
+            }
+        }
+        total
+    }
+
+    pub(crate) fn add_hessian(&self, x: &[Vec3], diagonal: &mut [Mat3]) {
+        for (i, l) in self.lagged.iter().enumerate() {
+            if let Some(l) = l {
+                diagonal[i] += l.hessian(&(x[i] - self.anchors[i]), self.slip);
+            }
+        }
+    }
+
+    /// `D(x1) - D(x0)` (joules).
+    pub(crate) fn change(&self, x0: &[Vec3], x1: &[Vec3]) -> Real {
+        self.lagged
+            .iter()
+            .enumerate()
+            .filter_map(|(i, l)| {
+                l.map(|l| {
+                    l.potential(&(x1[i] - self.anchors[i]), self.slip)
+                        - l.potential(&(x0[i] - self.anchors[i]), self.slip)
+                })
+            })
+            .sum()
+    }
 }
 
 #[cfg(test)]

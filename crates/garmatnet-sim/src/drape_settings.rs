@@ -1,7 +1,13 @@
 //! Tuning knobs of the static-drape solver.
 
-use garmatnet_core::Real;
+use garmatnet_core::{Error as CoreError, Real};
 use serde::{Deserialize, Serialize};
+
+use crate::error::Result;
+
+/// Largest multiple of the Newton step the line search's expansion tries
+/// ([`DrapeSettings::step_expansion`]'s upper bound).
+pub(crate) const MAX_EXPANSION: Real = 64.0;
 
 /// Settings of [`crate::DrapeSolver`]. The defaults drape garment-sized cloth (a few
 /// thousand vertices, 0.01 to 20,000 N/m springs, 0.002 to 10 kg/m^2) to static equilibrium.
@@ -119,5 +125,132 @@ impl Default for DrapeSettings {
             step_expansion: 2.0,
             factor_precision: FactorPrecision::Double,
         }
+    }
+}
+
+impl DrapeSettings {
+    /// Checks every setting against the range the solver works in (finite, positive time
+    /// steps and tolerances, a margin and step limit of sensible size, an expansion factor
+    /// from 1 to 64, at least one iteration). [`crate::DrapeSolver`] does so on creation and
+    /// on [`crate::DrapeSolver::set_settings`]; call it to check settings read from a file
+    /// before a long run.
+    ///
+    /// # Errors
+    /// [`garmatnet_core::Error::OutOfRange`] (as [`crate::Error::Core`]) naming the first
+    /// setting outside its range, with the range.
+    pub fn validate(&self) -> Result<()> {
+        let checks: [(&str, Real, Real, Real); 13] = [
+            ("time step (seconds)", self.time_step, 1e-6, 1e3),
+            (
+                "max time step (seconds)",
+                self.max_time_step,
+                self.time_step,
+                1e3,
+            ),
+            (
+                "residual tolerance",
+                self.residual_tolerance,
+                0.0,
+                Real::MAX,
+            ),
+            (
+                "max residual tolerance",
+                self.max_residual_tolerance,
+                0.0,
+                Real::MAX,
+            ),
+            ("gravity (m/s^2)", self.gravity, 1e-6, Real::MAX),
+            ("contact margin (metres)", self.contact_margin, 0.0, 1.0),
+            (
+                "contact stiffness ratio",
+                self.contact_stiffness_ratio,
+                0.0,
+                1e9,
+            ),
+            (
+                "min contact stiffness (N/m)",
+                self.min_contact_stiffness,
+                1e-6,
+                1e12,
+            ),
+            (
+                "contact hardening length (metres; 0 is off)",
+                self.contact_hardening,
+                0.0,
+                1.0,
+            ),
+            ("friction coefficient", self.friction, 0.0, 10.0),
+            (
+                "friction slip length (metres)",
+                self.friction_slip,
+                1e-7,
+                0.1,
+            ),
+            ("max step (metres)", self.max_step, 1e-9, 10.0),
+            (
+                "step expansion factor",
+                self.step_expansion,
+                1.0,
+                MAX_EXPANSION,
+            ),
+        ];
+        for (what, value, min, max) in checks {
+            if !(value >= min && value <= max) {
+                return Err(CoreError::OutOfRange {
+                    what: format!("drape setting {what}"),
+                    value,
+                    min,
+                    max,
+                    hint: String::new(),
+                }
+                .into());
+            }
+        }
+        if self.max_iterations == 0 {
+            return Err(CoreError::OutOfRange {
+                what: "drape setting max_iterations".into(),
+                value: 0.0,
+                min: 1.0,
+                max: Real::MAX,
+                hint: String::new(),
+            }
+            .into());
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_outside_the_solvers_range_are_refused_by_name() {
+        assert!(DrapeSettings::default().validate().is_ok());
+        let refused = |settings: DrapeSettings, name: &str| {
+            let err = settings.validate().unwrap_err().to_string();
+            assert!(err.contains(name), "{err}");
+        };
+        refused(
+            DrapeSettings {
+                time_step: Real::NAN,
+                ..DrapeSettings::default()
+            },
+            "time step",
+        );
+        refused(
+            DrapeSettings {
+                step_expansion: MAX_EXPANSION * 2.0,
+                ..DrapeSettings::default()
+            },
+            "step expansion",
+        );
+        refused(
+            DrapeSettings {
+                max_iterations: 0,
+                ..DrapeSettings::default()
+            },
+            "max_iterations",
+        );
     }
 }

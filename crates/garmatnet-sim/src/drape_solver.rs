@@ -35,9 +35,9 @@ use garmatnet_core::{Error as CoreError, Mat3, Real, SignedDistance, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::cloth_model::ClothModel;
-use crate::contact::{FrictionContact, push_out};
+use crate::contact::{Friction, push_out};
 use crate::drape_energy::{Contact, DrapeEnergy};
-use crate::drape_settings::DrapeSettings;
+use crate::drape_settings::{DrapeSettings, MAX_EXPANSION};
 use crate::error::{Error, Result};
 use crate::newton_system::NewtonSystem;
 
@@ -50,8 +50,6 @@ const GROWTH: Real = 3.0;
 /// Below this multiple of the RMS residual tolerance, a Newton step the line search refuses
 /// is still taken if it lowers the force residual.
 const NEAR_EQUILIBRIUM: Real = 100.0;
-/// Largest multiple of the Newton step the line search's expansion tries.
-const MAX_EXPANSION: Real = 64.0;
 /// Smallest pseudo time step (seconds).
 const MIN_TIME_STEP: Real = 1e-6;
 
@@ -116,7 +114,7 @@ impl DrapeSolver {
     /// cap, tolerances, gravity or step limit; negative margin or friction);
     /// [`Error::Factorization`] if the symbolic analysis fails (out of memory).
     pub fn new(model: &ClothModel, settings: &DrapeSettings) -> Result<Self> {
-        validate_settings(settings)?;
+        settings.validate()?;
         let mut solver = Self {
             system: NewtonSystem::new(model)?,
             model: model.clone(),
@@ -159,7 +157,7 @@ impl DrapeSolver {
     /// # Errors
     /// As [`DrapeSolver::new`] for invalid settings.
     pub fn set_settings(&mut self, settings: &DrapeSettings) -> Result<()> {
-        validate_settings(settings)?;
+        settings.validate()?;
         self.settings = settings.clone();
         self.update_weights();
         Ok(())
@@ -490,156 +488,4 @@ fn force_residual(
             },
         );
     ((sum / count.max(1) as Real).sqrt(), max)
-}
-
-/// The friction of one drape: the starting contacts' lagged normals and `μ λ`, and the
-/// anchors.
-struct Friction<'a> {
-    coefficient: Real,
-    slip: Real,
-    anchors: &'a [Vec3],
-    lagged: Vec<Option<FrictionContact>>,
-}
-
-impl<'a> Friction<'a> {
-    /// Friction measured from `anchors`, with no contact lagged yet.
-    fn new(coefficient: Real, slip: Real, anchors: &'a [Vec3]) -> Self {
-        Self {
-            coefficient,
-            slip,
-            anchors,
-            lagged: vec![None; anchors.len()],
-        }
-    }
-
-    /// Gives friction to every contact of the starting positions (`contacts` are their
-    /// contacts, `conservative` their energy gradient, friction not included), lagging its
-    /// normal and `μ λ` there for the whole drape.
-    ///
-    /// The normal force `λ` is the load the body carries, `n · ∇(E - penalty)` (springs and
-    /// gravity pressing the vertex in), not the penalty's own force: the two agree at
-    /// equilibrium, but a warm start carried with the body sits a fraction of a millimetre
-    /// off it, where the stiff penalty's force is hundreds of times the vertex's weight and
-    /// friction lagged at it glues the shirt in place.
-    fn lag(
-        &mut self,
-        energy: &DrapeEnergy<'_>,
-        contacts: &[Option<Contact>],
-        conservative: &[Vec3],
-    ) {
-        if self.coefficient == 0.0 {
-            return;
-        }
-        for (i, (c, l)) in contacts.iter().zip(self.lagged.iter_mut()).enumerate() {
-            *l = c.map(|c| {
-                let normal = c.normal();
-                let load = (conservative[i] + energy.penalty_force(i, &c)).dot(&normal);
-                FrictionContact {
-                    normal,
-                    weight: self.coefficient * load.max(0.0),
-                }
-            });
-        }
-    }
-
-    /// Adds `∇D` at `x` to `gradient`; returns the total friction force on the cloth.
-    fn add_to_gradient(&self, x: &[Vec3], gradient: &mut [Vec3]) -> Vec3 {
-        let mut total = Vec3::zeros();
-        for (i, l) in self.lagged.iter().enumerate() {
-            if let Some(l) = l {
-                let f = l.force(&(x[i] - self.anchors[i]), self.slip);
-                gradient[i] -= f;
-                total += f;
-            }
-        }
-        total
-    }
-
-    fn add_hessian(&self, x: &[Vec3], diagonal: &mut [Mat3]) {
-        for (i, l) in self.lagged.iter().enumerate() {
-            if let Some(l) = l {
-                diagonal[i] += l.hessian(&(x[i] - self.anchors[i]), self.slip);
-            }
-        }
-    }
-
-    /// `D(x1) - D(x0)` (joules).
-    fn change(&self, x0: &[Vec3], x1: &[Vec3]) -> Real {
-        self.lagged
-            .iter()
-            .enumerate()
-            .filter_map(|(i, l)| {
-                l.map(|l| {
-                    l.potential(&(x1[i] - self.anchors[i]), self.slip)
-                        - l.potential(&(x0[i] - self.anchors[i]), self.slip)
-                })
-            })
-            .sum()
-    }
-}
-
-fn validate_settings(s: &DrapeSettings) -> Result<()> {
-    let checks: [(&str, Real, Real, Real); 13] = [
-        ("time step (seconds)", s.time_step, 1e-6, 1e3),
-        ("max time step (seconds)", s.max_time_step, s.time_step, 1e3),
-        ("residual tolerance", s.residual_tolerance, 0.0, Real::MAX),
-        (
-            "max residual tolerance",
-            s.max_residual_tolerance,
-            0.0,
-            Real::MAX,
-        ),
-        ("gravity (m/s^2)", s.gravity, 1e-6, Real::MAX),
-        ("contact margin (metres)", s.contact_margin, 0.0, 1.0),
-        (
-            "contact stiffness ratio",
-            s.contact_stiffness_ratio,
-            0.0,
-            1e9,
-        ),
-        (
-            "min contact stiffness (N/m)",
-            s.min_contact_stiffness,
-            1e-6,
-            1e12,
-        ),
-        (
-            "contact hardening length (metres; 0 is off)",
-            s.contact_hardening,
-            0.0,
-            1.0,
-        ),
-        ("friction coefficient", s.friction, 0.0, 10.0),
-        ("friction slip length (metres)", s.friction_slip, 1e-7, 0.1),
-        ("max step (metres)", s.max_step, 1e-9, 10.0),
-        (
-            "step expansion factor",
-            s.step_expansion,
-            1.0,
-            MAX_EXPANSION,
-        ),
-    ];
-    for (what, value, min, max) in checks {
-        if !(value >= min && value <= max) {
-            return Err(CoreError::OutOfRange {
-                what: format!("drape setting {what}"),
-                value,
-                min,
-                max,
-                hint: String::new(),
-            }
-            .into());
-        }
-    }
-    if s.max_iterations == 0 {
-        return Err(CoreError::OutOfRange {
-            what: "drape setting max_iterations".into(),
-            value: 0.0,
-            min: 1.0,
-            max: Real::MAX,
-            hint: String::new(),
-        }
-        .into());
-    }
-    Ok(())
 }
