@@ -25,6 +25,7 @@
 
 pub mod alpha_sweep;
 pub mod baseline;
+mod bench_report;
 pub mod checkpoint;
 pub mod dataset_loader;
 pub mod error;
