@@ -417,7 +417,7 @@ pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{cpu, small_model, test_anchors, test_faces};
+    use crate::test_util::{cpu, small_model, test_anchors, test_faces, test_predictor};
     use approx::assert_relative_eq;
     use garmatnet_core::{JointLimits, Sphere, SplitMix64};
 
@@ -437,15 +437,7 @@ mod tests {
         for net in [&mut model.fitting, &mut model.local] {
             net.config.displacement_frame = frame;
         }
-        Predictor::new(
-            model,
-            test_faces(),
-            test_anchors(),
-            "test-template",
-            Skeleton::smpl_neutral(),
-            &dev,
-        )
-        .unwrap()
+        test_predictor(model, &dev)
     }
 
     fn random_material(rng: &mut SplitMix64) -> [Real; 6] {
@@ -561,15 +553,7 @@ mod tests {
         // A diverged net (NaN weights straight from training, never from a file).
         let nan = Tensor::<1>::full([150], f32::NAN, &dev);
         model.fitting.output.bias = Some(burn::module::Param::from_tensor(nan));
-        let p = Predictor::new(
-            model,
-            test_faces(),
-            test_anchors(),
-            "test-template",
-            Skeleton::smpl_neutral(),
-            &dev,
-        )
-        .unwrap();
+        let p = test_predictor(model, &dev);
         let err = p
             .predict_normalized(&Pose::zero(), &[0.5; 6], Detail::Smooth)
             .unwrap_err();
@@ -632,15 +616,7 @@ mod tests {
         model.save(&path).unwrap();
         let make = |dev: &Device| {
             let model = GarMatNetModel::load(&path, dev).unwrap();
-            Predictor::new(
-                model,
-                test_faces(),
-                test_anchors(),
-                "test-template",
-                Skeleton::smpl_neutral(),
-                dev,
-            )
-            .unwrap()
+            test_predictor(model, dev)
         };
         let (on_cpu, on_gpu) = (make(&cpu_dev), make(&gpu));
         let mut rng = SplitMix64::new(3);

@@ -385,22 +385,14 @@ fn select_rows(t: &Tensor<2>, rows: &[usize], device: &Device) -> Tensor<2> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{cpu, small_model, test_anchors, test_faces};
+    use crate::test_util::{cpu, small_model, test_predictor};
     use approx::assert_relative_eq;
-    use garmatnet_core::{JointLimits, Skeleton, SplitMix64};
+    use garmatnet_core::{JointLimits, SplitMix64};
 
     fn predictor(rank: Option<usize>) -> Predictor {
         let dev = cpu();
         let model = small_model(21, rank, &dev);
-        Predictor::new(
-            model,
-            test_faces(),
-            test_anchors(),
-            "test-template",
-            Skeleton::smpl_neutral(),
-            &dev,
-        )
-        .unwrap()
+        test_predictor(model, &dev)
     }
 
     fn assert_same(a: &[Vec3], b: &[Vec3]) {

@@ -6,6 +6,7 @@ use garmatnet_core::{BodyAnchor, POSE_DIM, SplitMix64, Vec3};
 use crate::garmatnet_net::{GarMatNetConfig, MATERIAL_DIM};
 use crate::model_file::{GarMatNetModel, ModelMeta, TemplateInfo};
 use crate::output_normalizer::OutputNormalizer;
+use crate::predictor::Predictor;
 use crate::tensor_util::matrix;
 
 /// Tests run on the pure-Rust CPU backend, whatever features are compiled in.
@@ -84,4 +85,17 @@ pub(crate) fn test_faces() -> Vec<[u32; 3]> {
     (0..TEST_VERTICES as u32 - 2)
         .map(|i| [i, i + 1, i + 2])
         .collect()
+}
+
+/// A predictor over `model` with the test template's faces and anchors on SMPL's skeleton.
+pub(crate) fn test_predictor(model: GarMatNetModel, dev: &Device) -> Predictor {
+    Predictor::new(
+        model,
+        test_faces(),
+        test_anchors(),
+        "test-template",
+        garmatnet_core::Skeleton::smpl_neutral(),
+        dev,
+    )
+    .unwrap()
 }
