@@ -292,10 +292,14 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     .to_string();
     assert!(bad.contains("rotation-matrix"), "{bad}");
     assert!(!dir.join("bad.safetensors").exists());
-    garmatnet(
+    let baseline = garmatnet(
         &[&["train-baseline", "--out", "baseline"][..], &small].concat(),
         dir,
     )?;
+    // A summary per material, not the manifest's normalisers (one number a line each).
+    assert!(baseline.contains("best_dev_mse"), "{baseline}");
+    assert!(!baseline.contains("fitting_norm"), "{baseline}");
+    assert!(baseline.lines().count() < 200, "{baseline}");
     let eval = garmatnet(
         &[
             "eval",
