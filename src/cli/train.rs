@@ -7,8 +7,8 @@ use clap::Args;
 use garmatnet::core::DisplacementFrame;
 use garmatnet::model::PoseEncoding;
 use garmatnet::train::{
-    BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS, RunOptions, TrainConfig,
-    sweep_alpha, train, train_baseline,
+    BASELINE_MANIFEST, BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS, RunOptions,
+    TrainConfig, sweep_alpha, train, train_baseline,
 };
 
 /// Options shared by every training command (defaults: the paper's protocol).
@@ -272,7 +272,7 @@ pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(&materials)?);
     println!(
         "baseline written to {}",
-        args.out.join("baseline.json").display()
+        args.out.join(BASELINE_MANIFEST).display()
     );
     Ok(())
 }

@@ -35,6 +35,9 @@ use crate::training_loop::{
 /// The baseline format version.
 pub const BASELINE_VERSION: u32 = 1;
 
+/// The manifest file in a baseline directory.
+pub const BASELINE_MANIFEST: &str = "baseline.json";
+
 /// Settings of a baseline training run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -341,8 +344,8 @@ pub fn train_baseline(
     };
     let json = serde_json::to_vec_pretty(&manifest)
         .map_err(|e| Error::InvalidConfig(format!("cannot encode baseline.json: {e}")))?;
-    garmatnet_core::write_bytes_atomic(out_dir.join("baseline.json"), &json)?;
-    crate::report::make_readable(&out_dir.join("baseline.json"));
+    garmatnet_core::write_bytes_atomic(out_dir.join(BASELINE_MANIFEST), &json)?;
+    crate::report::make_readable(&out_dir.join(BASELINE_MANIFEST));
     Ok(manifest)
 }
 
@@ -353,7 +356,7 @@ impl Baseline {
     /// [`Error::Io`] if `baseline.json` cannot be read; [`Error::Checkpoint`] for a corrupt
     /// manifest or weight file.
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
-        let path = dir.join("baseline.json");
+        let path = dir.join(BASELINE_MANIFEST);
         let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
         let corrupt = |message: String| Error::Checkpoint {
             path: path.clone(),

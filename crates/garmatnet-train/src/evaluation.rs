@@ -636,7 +636,11 @@ mod tests {
         assert!(md.contains("every 10th frame"), "{md}");
 
         // A baseline trained with other held-out poses may have seen the comparison poses.
-        let manifest_path = inputs.baseline.as_ref().unwrap().join("baseline.json");
+        let manifest_path = inputs
+            .baseline
+            .as_ref()
+            .unwrap()
+            .join(crate::BASELINE_MANIFEST);
         let mut json: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&manifest_path).unwrap()).unwrap();
         json["config"]["split"]["held_out_block"] = 2.into();

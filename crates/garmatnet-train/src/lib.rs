@@ -48,8 +48,8 @@ pub mod training_loop;
 
 pub use alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
 pub use baseline::{
-    BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest, BaselineMaterial,
-    BaselineMaterialEntry, train_baseline,
+    BASELINE_MANIFEST, BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest,
+    BaselineMaterial, BaselineMaterialEntry, train_baseline,
 };
 pub use checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
 pub use dataset_loader::{
