@@ -343,9 +343,10 @@ pub fn train_baseline(
         materials: entries,
     };
     let json = serde_json::to_vec_pretty(&manifest)
-        .map_err(|e| Error::InvalidConfig(format!("cannot encode baseline.json: {e}")))?;
-    garmatnet_core::write_bytes_atomic(out_dir.join(BASELINE_MANIFEST), &json)?;
-    crate::report::make_readable(&out_dir.join(BASELINE_MANIFEST));
+        .map_err(|e| Error::InvalidConfig(format!("cannot encode {BASELINE_MANIFEST}: {e}")))?;
+    let manifest_path = out_dir.join(BASELINE_MANIFEST);
+    garmatnet_core::write_bytes_atomic(&manifest_path, &json)?;
+    crate::report::make_readable(&manifest_path);
     Ok(manifest)
 }
 
