@@ -18,8 +18,8 @@ use crate::prediction_errors::{
     VertexErrors, error_stats, load_model, predict_baseline, predict_garmatnet, vertex_errors,
 };
 use crate::report::{
-    ErrorStats, FrameComparison, ModelSizes, PenetrationStats, Report, SampleErrors, TestParts,
-    Timing,
+    ErrorStats, FrameComparison, MaterialErrors, ModelSizes, PenetrationStats, Report,
+    SampleErrors, TestParts, Timing,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -143,6 +143,18 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             .map(|offset| (offset, split.config.held_out_frame_every)),
     };
 
+    let mut tested: Vec<usize> = all_errors.iter().map(|(k, _)| k.material).collect();
+    tested.sort_unstable();
+    tested.dedup();
+    let per_material = tested
+        .into_iter()
+        .map(|m| MaterialErrors {
+            material: spec.materials[m].name.clone(),
+            unseen: split.test_materials.contains(&m),
+            garmatnet: stats_of(&|k| k.material == m),
+        })
+        .collect();
+
     let fabric_lookup = fabric_lookup(&data, &split, &comparison)?;
 
     // The baseline on the comparison set.
@@ -241,6 +253,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         fabric_lookup,
         material_support: material_support(&data, &split),
         per_sample,
+        per_material,
         penetration: penetration.finish(config.push_out_epsilon),
         timing,
         sizes,
@@ -518,6 +531,37 @@ mod tests {
         );
         let split = Split::read(&split_path(&world), report.dataset_hash.as_str()).unwrap();
         assert_eq!(dev.samples, split.dev.len());
+        // One row per material with a test sample; together they are the whole test set.
+        let mut tested: Vec<usize> = split.test.iter().map(|k| k.material).collect();
+        tested.sort_unstable();
+        tested.dedup();
+        assert_eq!(report.per_material.len(), tested.len());
+        let all = report.garmatnet_all_test;
+        let rows = &report.per_material;
+        assert_eq!(
+            rows.iter().map(|r| r.garmatnet.samples).sum::<usize>(),
+            all.samples
+        );
+        let weighted: f64 = rows
+            .iter()
+            .map(|r| r.garmatnet.whole_mm * r.garmatnet.samples as f64)
+            .sum();
+        assert!((weighted / all.samples as f64 - all.whole_mm).abs() < 1e-9 * all.whole_mm);
+        let mut unseen: Vec<&str> = rows
+            .iter()
+            .filter(|r| r.unseen)
+            .map(|r| r.material.as_str())
+            .collect();
+        let mut targets: Vec<&str> = report.test_materials.iter().map(String::as_str).collect();
+        unseen.sort_unstable();
+        targets.sort_unstable();
+        assert_eq!(unseen, targets);
+        assert!(rows.iter().any(|r| !r.unseen));
+        assert!(
+            report
+                .to_markdown()
+                .contains("## Per material, whole test set")
+        );
         for e in [fabric, pose, dev] {
             assert!(e.whole_mm.is_finite() && e.whole_mm <= e.fitting_mm + e.local_mm + 1e-9);
         }
@@ -626,6 +670,7 @@ mod tests {
         assert!(md.contains("GarMatNet, whole test set"), "{md}");
         // Per target material, both methods, over its 2 compared samples.
         let per_material = md.split("## Per material (whole pipeline").nth(1).unwrap();
+        let per_material = per_material.split("\n## ").next().unwrap();
         let rows: Vec<&str> = per_material
             .lines()
             .filter(|l| l.contains(" | 2 | "))
@@ -697,6 +742,13 @@ mod tests {
         let parts = report.garmatnet_by_part.clone().unwrap();
         assert!(parts.unseen_material.is_none());
         assert_eq!(parts.unseen_pose.unwrap().samples, 8);
+        assert_eq!(report.per_material.len(), 4);
+        assert!(
+            report
+                .per_material
+                .iter()
+                .all(|r| !r.unseen && r.garmatnet.samples == 2)
+        );
         assert!(report.fabric_lookup.is_none() && report.baseline.is_none());
         let md = report.to_markdown();
         assert!(
