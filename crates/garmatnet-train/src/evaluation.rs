@@ -143,15 +143,16 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             .map(|offset| (offset, split.config.held_out_frame_every)),
     };
 
-    let mut tested: Vec<usize> = all_errors.iter().map(|(k, _)| k.material).collect();
-    tested.sort_unstable();
-    tested.dedup();
-    let per_material = tested
-        .into_iter()
-        .map(|m| MaterialErrors {
-            material: spec.materials[m].name.clone(),
-            unseen: split.test_materials.contains(&m),
-            garmatnet: stats_of(&|k| k.material == m),
+    // `split.test` is sorted, material first, so each material's errors are one run.
+    let per_material = all_errors
+        .chunk_by(|(a, _), (b, _)| a.material == b.material)
+        .map(|run| {
+            let m = run[0].0.material;
+            MaterialErrors {
+                material: spec.materials[m].name.clone(),
+                unseen: split.test_materials.contains(&m),
+                garmatnet: error_stats(run.iter().map(|(_, e)| e)),
+            }
         })
         .collect();
 
