@@ -111,7 +111,8 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         );
     }
     // The model knows the fabrics it trained on (Cotton Poplin, Denim Heavy, Silk Chiffon):
-    // `drape` warns for a fabric outside their range, and only then.
+    // `drape` names the nearest of them, and warns for a fabric outside their range or far
+    // from all of them, and only then.
     let drape = |material: &str, out: &str| {
         garmatnet(
             &[
@@ -131,8 +132,18 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         outside.contains("warning: the material lies outside the fabrics"),
         "{outside}"
     );
+    assert!(
+        outside.contains("nearest training fabric: ")
+            && outside.contains("warning: the material is ")
+            && outside.contains("from the nearest fabric"),
+        "{outside}"
+    );
     let inside = drape("Cotton Poplin", "poplin.obj")?;
     assert!(!inside.contains("warning"), "{inside}");
+    assert!(
+        inside.contains("nearest training fabric: Cotton Poplin (0.000 away"),
+        "{inside}"
+    );
 
     // Leave drapes that did not settle out of training (this 10-iteration solver leaves
     // many), with an annealed learning rate and rotation-matrix pose features: the split

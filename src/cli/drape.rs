@@ -5,7 +5,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use garmatnet::model::{Detail, Predictor, PushOut, default_model_path, select_device};
+use garmatnet::model::{
+    Detail, FAR_FROM_TRAINING, Predictor, PushOut, default_model_path, select_device,
+};
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
     DrapeView, OutputFormat, comparison_image, resolve_material, resolve_pose, simulate_drape,
@@ -83,6 +85,22 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                  prediction is an extrapolation, expect larger errors",
                 model_path.display(),
                 parts.join("; ")
+            );
+        }
+    }
+    if let Some((fabric, distance)) = predictor.nearest_training_fabric(&material) {
+        println!(
+            "nearest training fabric: {} ({distance:.3} away in normalised ω)",
+            fabric.name
+        );
+        if distance >= FAR_FROM_TRAINING {
+            eprintln!(
+                "warning: the material is {distance:.3} from the nearest fabric {} was trained \
+                 on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
+                 erred about twice as much as nearer ones (README, \"The shipped model and \
+                 Table 2\"): expect a larger error",
+                model_path.display(),
+                fabric.name
             );
         }
     }

@@ -318,8 +318,10 @@ impl GarMatNetModel {
             if m.meta.provenance.dataset_hash != first.meta.provenance.dataset_hash {
                 return differs("training dataset");
             }
-            if m.meta.provenance.material_range != first.meta.provenance.material_range {
-                return differs("range of training fabrics");
+            if m.meta.provenance.material_range != first.meta.provenance.material_range
+                || m.meta.provenance.training_fabrics != first.meta.provenance.training_fabrics
+            {
+                return differs("training fabrics");
             }
         }
         let fitting: Vec<_> = members
@@ -368,6 +370,7 @@ fn ensemble_provenance(members: &[GarMatNetModel]) -> TrainingProvenance {
         losses: Default::default(),
         extra: serde_json::json!({ "ensemble": listed }),
         material_range: first.material_range,
+        training_fabrics: first.training_fabrics.clone(),
     }
 }
 
@@ -487,6 +490,13 @@ mod tests {
 
         let mut other_data = small_model(2, Some(12), &dev);
         other_data.meta.provenance.dataset_hash = "another".into();
-        assert!(err(&[a, other_data]).contains("training dataset"));
+        assert!(err(&[a.clone(), other_data]).contains("training dataset"));
+
+        let mut other_fabrics = small_model(2, Some(12), &dev);
+        other_fabrics.meta.provenance.training_fabrics = vec![crate::TrainingFabric {
+            name: "Linen".into(),
+            omega: [0.5; crate::MATERIAL_DIM],
+        }];
+        assert!(err(&[a, other_fabrics]).contains("training fabrics"));
     }
 }

@@ -47,7 +47,7 @@ pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;
 pub use error::{Error, Result};
 pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MATERIAL_DIM, OutputHead, PoseEncoding};
-pub use material_range::{MaterialRange, OutsideComponent};
+pub use material_range::{FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric};
 pub use model_file::{
     FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
 };

@@ -1,5 +1,5 @@
-//! The box of normalised materials a model was trained on, and how far a material lies
-//! outside it.
+//! The fabrics a model was trained on: their box of normalised materials and how far a
+//! material lies outside it, and the fabrics themselves and which lies nearest a material.
 //!
 //! A network answers for any ω in `[0, 1]^6`, but it has only learned the fabrics it was
 //! trained on. Outside their range it extrapolates, and an MLP extrapolates poorly: on the
@@ -7,6 +7,11 @@
 //! 6 components) erred by 48.9 mm where the three targets inside the range erred by about 10
 //! (README, "The shipped model and Table 2"). [`MaterialRange`] records the training box so
 //! that callers can tell when a prediction is an extrapolation.
+//!
+//! Inside the box a fabric can still lie far from every training fabric, and there the error
+//! grows with that distance: on Table 2's four targets it was 8.2 mm at 0.07 from the nearest
+//! training fabric and 16–21 mm at 0.33–0.46 (README, "The shipped model and Table 2").
+//! [`TrainingFabric`] records the fabrics themselves and [`nearest`] finds the nearest.
 //!
 //! ```
 //! use garmatnet_model::MaterialRange;
@@ -26,6 +31,53 @@ use garmatnet_core::{COMPONENT_NAMES, Real};
 use serde::{Deserialize, Serialize};
 
 use crate::garmatnet_net::MATERIAL_DIM;
+
+/// Distance in normalised ω from the nearest training fabric at and beyond which a fabric is
+/// far from what a model learned. Measured on the 30 × 200 dataset over 42 (fabric, model)
+/// pairs — fabrics held out of models trained on 13, 26 or 52 fabrics (README, "The shipped
+/// model and Table 2") — the error over all poses of a fabric nearer than this averaged
+/// 8.7 mm (31 pairs), and 17.4 mm at or beyond it (11 pairs, none below 10.2).
+pub const FAR_FROM_TRAINING: Real = 0.3;
+
+/// A fabric a model was trained on: its name and normalised ω.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingFabric {
+    /// The fabric's name in the training dataset (a preset's name, or a random fabric's).
+    pub name: String,
+    /// Its normalised ω, the nets' material input.
+    pub omega: [Real; MATERIAL_DIM],
+}
+
+/// The candidate nearest to `target` in normalised ω (Euclidean distance), with that distance:
+/// the first candidate on a tie, `None` without candidates.
+///
+/// ```
+/// use garmatnet_model::material_range::nearest;
+///
+/// let candidates = [("a", [0.0; 6]), ("b", [0.5, 0.5, 0.5, 0.5, 0.5, 0.4])];
+/// let (name, distance) = nearest(&[0.5; 6], candidates).expect("two candidates");
+/// assert_eq!(name, "b");
+/// assert!((distance - 0.1).abs() < 1e-12);
+/// ```
+pub fn nearest<T>(
+    target: &[Real; MATERIAL_DIM],
+    candidates: impl IntoIterator<Item = (T, [Real; MATERIAL_DIM])>,
+) -> Option<(T, Real)> {
+    let squared = |w: &[Real; MATERIAL_DIM]| {
+        w.iter()
+            .zip(target)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<Real>()
+    };
+    candidates
+        .into_iter()
+        .map(|(c, w)| (c, squared(&w)))
+        .fold(None, |best: Option<(T, Real)>, (c, d)| match best {
+            Some((_, bd)) if bd <= d => best,
+            _ => Some((c, d)),
+        })
+        .map(|(c, d)| (c, d.sqrt()))
+}
 
 /// The per-component minimum and maximum of normalised ω over a model's training samples.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -158,6 +210,24 @@ mod tests {
         );
         assert!(out[0].to_string().contains("below"));
         assert!((r.largest_excess(&[0.05, 0.15, 0.9, 0.4, 0.3, 0.65]) - 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_nearest_candidate_is_the_closest_and_the_first_on_a_tie() {
+        let target = [0.5; MATERIAL_DIM];
+        let at = |x: Real| {
+            let mut w = [0.5; MATERIAL_DIM];
+            w[2] = x;
+            w
+        };
+        let candidates = [(7, at(0.9)), (3, at(0.6)), (9, at(0.4)), (1, at(0.45))];
+        let (which, distance) = nearest(&target, candidates).unwrap();
+        assert_eq!(which, 1);
+        assert!((distance - 0.05).abs() < 1e-12);
+        let tie = [(4, at(0.75)), (2, at(0.25))];
+        assert_eq!(nearest(&target, tie).map(|(c, _)| c), Some(4));
+        assert_eq!(nearest(&target, [(5, target)]), Some((5, 0.0)));
+        assert_eq!(nearest(&target, std::iter::empty::<(usize, _)>()), None);
     }
 
     #[test]

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::garmatnet_net::{GarMatNet, GarMatNetConfig};
-use crate::material_range::MaterialRange;
+use crate::material_range::{MaterialRange, TrainingFabric};
 use crate::model_tensors::{
     TensorSource, checksum, net_from_tensors, net_tensors, norm_tensors, write_atomic,
 };
@@ -71,6 +71,12 @@ pub struct TrainingProvenance {
     /// extrapolation.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub material_range: Option<MaterialRange>,
+    /// The fabrics the nets were trained on, in the dataset's order (empty in files written
+    /// before they were recorded, the shipped model's before this version among them).
+    /// [`crate::Predictor::nearest_training_fabric`] finds the one nearest a material: the
+    /// farther it lies, the larger the error to expect.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub training_fabrics: Vec<TrainingFabric>,
 }
 
 /// Everything about a model that is not a weight.
@@ -215,6 +221,25 @@ impl GarMatNetModel {
                 "the recorded training material range is not a box of finite values with \
                  min <= max: {range:?}; re-train the model or remove the field"
             )));
+        }
+        for fabric in &self.meta.provenance.training_fabrics {
+            let outside = self
+                .meta
+                .provenance
+                .material_range
+                .as_ref()
+                .is_some_and(|range| !range.outside(&fabric.omega).is_empty());
+            if fabric.name.trim().is_empty()
+                || !fabric.omega.iter().all(|v| v.is_finite())
+                || outside
+            {
+                return Err(Error::InvalidConfig(format!(
+                    "the recorded training fabric {:?} needs a name and a finite normalised ω \
+                     inside the recorded training range: {:?}; re-train the model or remove \
+                     the field",
+                    fabric.name, fabric.omega
+                )));
+            }
         }
         if self.fitting.config().displacement_frame != self.local.config().displacement_frame {
             return Err(Error::InvalidConfig(
@@ -404,6 +429,7 @@ mod tests {
     use crate::PoseEncoding;
     use crate::garmatnet_net::MATERIAL_DIM;
     use crate::test_util::{cpu, random_inputs, small_model, to_vec};
+    use garmatnet_core::Real;
 
     fn predictions(model: &GarMatNetModel, dev: &Device) -> (Vec<f32>, Vec<f32>) {
         let (p, m) = random_inputs(3, 11, dev);
@@ -437,6 +463,17 @@ mod tests {
                 min: [0.1, 0.2, 0.0, 0.05, 0.3, 0.25],
                 max: [0.7, 0.6, 0.45, 0.5, 0.9, 0.75],
             });
+            if rank.is_some() {
+                model.meta.provenance.training_fabrics = [
+                    ("Cotton Poplin", [0.1, 0.2, 0.0, 0.05, 0.3, 0.25]),
+                    ("random-0-003", [0.7, 0.6, 0.45, 0.5, 0.9, 0.75]),
+                ]
+                .map(|(name, omega)| TrainingFabric {
+                    name: name.into(),
+                    omega,
+                })
+                .into();
+            }
             model
                 .meta
                 .provenance
@@ -473,6 +510,37 @@ mod tests {
             matches!(err, Error::InvalidConfig(_)) && err.to_string().contains("material range"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_training_fabric_without_a_name_or_outside_the_recorded_range_is_refused() {
+        let mut model = small_model(3, None, &cpu());
+        let inside = [0.5; MATERIAL_DIM];
+        model.meta.provenance.material_range = Some(MaterialRange {
+            min: [0.4; MATERIAL_DIM],
+            max: [0.6; MATERIAL_DIM],
+        });
+        let fabric = |name: &str, omega| TrainingFabric {
+            name: name.into(),
+            omega,
+        };
+        model.meta.provenance.training_fabrics = vec![fabric("Linen", inside)];
+        model.validate().unwrap();
+        let mut outside = inside;
+        outside[3] = 0.7;
+        for bad in [
+            fabric(" ", inside),
+            fabric("Linen", outside),
+            fabric("Linen", [Real::NAN; MATERIAL_DIM]),
+        ] {
+            model.meta.provenance.training_fabrics = vec![bad];
+            let err = model.validate().unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidConfig(_))
+                    && err.to_string().contains("training fabric"),
+                "{err}"
+            );
+        }
     }
 
     #[test]

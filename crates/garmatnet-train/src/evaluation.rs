@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
+use garmatnet_model::material_range::nearest;
 use garmatnet_model::{Detail, GarMatNetModel, Predictor, push_out, select_device};
 use serde::{Deserialize, Serialize};
 
@@ -18,8 +19,8 @@ use crate::prediction_errors::{
     VertexErrors, error_stats, load_model, predict_baseline, predict_garmatnet, vertex_errors,
 };
 use crate::report::{
-    ErrorStats, FrameComparison, MaterialErrors, ModelSizes, PenetrationStats, Report,
-    SampleErrors, TestParts, Timing,
+    ErrorStats, FrameComparison, MaterialErrors, ModelSizes, NearestTraining, PenetrationStats,
+    Report, SampleErrors, TestParts, Timing,
 };
 use crate::split::Split;
 use crate::trainer::split_path;
@@ -144,14 +145,29 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     };
 
     // `split.test` is sorted, material first, so each material's errors are one run.
+    let training_fabrics = split.training_fabrics(spec);
     let per_material = all_errors
         .chunk_by(|(a, _), (b, _)| a.material == b.material)
         .map(|run| {
             let m = run[0].0.material;
+            let unseen = split.test_materials.contains(&m);
+            let nearest_training = unseen
+                .then(|| {
+                    nearest(
+                        &spec.materials[m].omega_normalized,
+                        training_fabrics.iter().map(|f| (f, f.omega)),
+                    )
+                })
+                .flatten()
+                .map(|(f, distance)| NearestTraining {
+                    material: f.name.clone(),
+                    distance,
+                });
             MaterialErrors {
                 material: spec.materials[m].name.clone(),
-                unseen: split.test_materials.contains(&m),
+                unseen,
                 garmatnet: error_stats(run.iter().map(|(_, e)| e)),
+                nearest_training,
             }
         })
         .collect();
@@ -559,6 +575,10 @@ mod tests {
         assert_eq!(unseen, targets);
         assert!(rows.iter().any(|r| !r.unseen));
         assert!(
+            rows.iter()
+                .all(|r| r.unseen == r.nearest_training.is_some())
+        );
+        assert!(
             report
                 .to_markdown()
                 .contains("## Per material, whole test set")
@@ -576,12 +596,41 @@ mod tests {
         // The fabric-lookup reference: each target's nearest training fabric, never a target;
         // the oracle's pick is at least as close as the nearest fabric's, sample by sample.
         let lookup = report.fabric_lookup.clone().unwrap();
+        let split_spec = TrainingDataset::open(&data, false).unwrap().spec().clone();
         assert_eq!(lookup.nearest_material.samples, report.garmatnet.samples);
         assert_eq!(lookup.best_material.samples, report.garmatnet.samples);
         assert_eq!(lookup.nearest_to.len(), report.test_materials.len());
         for (target, near) in &lookup.nearest_to {
             assert!(report.test_materials.contains(target));
             assert!(!report.test_materials.contains(near), "{near}");
+            // Its per-material row names the same nearest training fabric, at the distance
+            // between the two fabrics' normalised ω.
+            let row = rows.iter().find(|r| &r.material == target).unwrap();
+            let nearest = row.nearest_training.as_ref().unwrap();
+            assert_eq!(&nearest.material, near);
+            let omega = |name: &str| {
+                split_spec
+                    .materials
+                    .iter()
+                    .find(|m| m.name == name)
+                    .unwrap()
+                    .omega_normalized
+            };
+            let (a, b) = (omega(target), omega(near));
+            let distance = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>();
+            assert!((nearest.distance - distance.sqrt()).abs() < 1e-12);
+            assert!(nearest.distance > 0.0);
+            assert!(
+                report.to_markdown().contains(&format!(
+                    "{target} (never trained on; nearest: {near}, {:.3} away)",
+                    nearest.distance
+                )),
+                "{target}"
+            );
         }
         let (near, best) = (lookup.nearest_material, lookup.best_material);
         assert!(best.whole_mm <= near.whole_mm + 1e-9, "{best:?} {near:?}");
@@ -748,7 +797,7 @@ mod tests {
             report
                 .per_material
                 .iter()
-                .all(|r| !r.unseen && r.garmatnet.samples == 2)
+                .all(|r| !r.unseen && r.garmatnet.samples == 2 && r.nearest_training.is_none())
         );
         assert!(report.fabric_lookup.is_none() && report.baseline.is_none());
         let md = report.to_markdown();

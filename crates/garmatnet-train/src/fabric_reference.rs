@@ -2,7 +2,7 @@
 //! range of ω, and how well their true drapes would stand in for its own (the nearest
 //! fabric in ω, and the best one chosen with the answer in hand).
 
-use garmatnet_core::MATERIAL_DIM;
+use garmatnet_model::material_range::nearest;
 
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::Result;
@@ -49,8 +49,7 @@ pub(crate) fn fabric_lookup(
     let mut nearest_to = Vec::new();
     let mut targets = Vec::new();
     for &target in &split.test_materials {
-        let Some(nearest) =
-            nearest_material(&omega(target), training.iter().map(|&m| (m, omega(m))))
+        let Some((nearest, _)) = nearest(&omega(target), training.iter().map(|&m| (m, omega(m))))
         else {
             return Ok(None);
         };
@@ -112,45 +111,4 @@ pub(crate) fn fabric_lookup(
         nearest_to,
         best_material: error_stats(best_errors.iter()),
     }))
-}
-
-/// The index of the candidate `(material, ω)` nearest to `target` (Euclidean; the first on a
-/// tie), or `None` without candidates.
-fn nearest_material(
-    target: &[f64; MATERIAL_DIM],
-    candidates: impl Iterator<Item = (usize, [f64; MATERIAL_DIM])>,
-) -> Option<usize> {
-    let distance = |w: &[f64; MATERIAL_DIM]| {
-        w.iter()
-            .zip(target)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-    };
-    candidates
-        .map(|(m, w)| (m, distance(&w)))
-        .fold(None, |best: Option<(usize, f64)>, (m, d)| match best {
-            Some((_, bd)) if bd <= d => best,
-            _ => Some((m, d)),
-        })
-        .map(|(m, _)| m)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_nearest_material_is_the_closest_candidate_and_the_first_on_a_tie() {
-        let target = [0.5; MATERIAL_DIM];
-        let at = |x: f64| {
-            let mut w = [0.5; MATERIAL_DIM];
-            w[2] = x;
-            w
-        };
-        let candidates = [(7, at(0.9)), (3, at(0.6)), (9, at(0.4)), (1, at(0.45))];
-        assert_eq!(nearest_material(&target, candidates.into_iter()), Some(1));
-        let tie = [(4, at(0.75)), (2, at(0.25))];
-        assert_eq!(nearest_material(&target, tie.into_iter()), Some(4));
-        assert_eq!(nearest_material(&target, std::iter::empty()), None);
-    }
 }

@@ -146,6 +146,20 @@ pub struct MaterialErrors {
     pub unseen: bool,
     /// The error over its test samples.
     pub garmatnet: ErrorStats,
+    /// For a test material, the training fabric nearest to it in normalised ω (absent for
+    /// training materials, and in reports written before it was recorded): the model's error
+    /// on a fabric it never saw grows with that distance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_training: Option<NearestTraining>,
+}
+
+/// The training fabric nearest to a test material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NearestTraining {
+    /// The training fabric's name.
+    pub material: String,
+    /// Its Euclidean distance to the test material in normalised ω.
+    pub distance: f64,
 }
 
 /// Where a test material lies relative to the materials the model trained on.
@@ -495,10 +509,13 @@ fn test_set_material_table(s: &mut String, rows: &[MaterialErrors]) {
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
     for r in rows {
-        let name = if r.unseen {
-            format!("{} (never trained on)", r.material)
-        } else {
-            r.material.clone()
+        let name = match (&r.nearest_training, r.unseen) {
+            (Some(n), _) => format!(
+                "{} (never trained on; nearest: {}, {:.3} away)",
+                r.material, n.material, n.distance
+            ),
+            (None, true) => format!("{} (never trained on)", r.material),
+            (None, false) => r.material.clone(),
         };
         error_row(s, &name, &r.garmatnet);
     }

@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use garmatnet_core::{PAPER_TEST_MATERIALS, SplitMix64};
-use garmatnet_model::MaterialRange;
+use garmatnet_model::{MaterialRange, TrainingFabric};
 use garmatnet_sim::{DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
@@ -148,6 +148,22 @@ impl Split {
                 .iter()
                 .map(|k| spec.materials[k.material].omega_normalized),
         )
+    }
+
+    /// The materials of the training samples, in the dataset's order, with their normalised
+    /// ω: what a model trained on this split has learned (recorded in its file).
+    #[must_use]
+    pub fn training_fabrics(&self, spec: &DatasetSpec) -> Vec<TrainingFabric> {
+        let mut materials: Vec<usize> = self.train.iter().map(|k| k.material).collect();
+        materials.sort_unstable();
+        materials.dedup();
+        materials
+            .into_iter()
+            .map(|m| TrainingFabric {
+                name: spec.materials[m].name.clone(),
+                omega: spec.materials[m].omega_normalized,
+            })
+            .collect()
     }
 
     /// Splits the finished `samples` of the dataset described by `spec`.

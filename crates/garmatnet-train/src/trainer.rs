@@ -467,6 +467,7 @@ pub fn train(
         .into_iter()
         .collect(),
         material_range: split.material_range(data.spec()),
+        training_fabrics: split.training_fabrics(data.spec()),
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
@@ -620,6 +621,20 @@ pub(crate) mod tests {
         let range = model.meta.provenance.material_range.unwrap();
         assert_eq!(Some(range), MaterialRange::of(training.iter().copied()));
         assert!(training.iter().all(|m| range.outside(m).is_empty()));
+        // It also records the training fabrics themselves, by name, in the dataset's order.
+        let recorded = &model.meta.provenance.training_fabrics;
+        let expected: Vec<(&str, [f64; 6])> = materials
+            .iter()
+            .filter(|m| !TARGETS.contains(&m.name.as_str()))
+            .map(|m| (m.name.as_str(), m.omega_normalized))
+            .collect();
+        assert_eq!(
+            recorded
+                .iter()
+                .map(|f| (f.name.as_str(), f.omega))
+                .collect::<Vec<_>>(),
+            expected
+        );
         assert!(s.split_path.exists());
         assert!(
             !s.checkpoint_dir.exists(),
