@@ -213,7 +213,7 @@ impl Predictor {
     }
 
     /// The box of normalised materials the model was trained on, when its file records it
-    /// (models trained before it was recorded, the shipped one among them, do not). A
+    /// (models trained before it was recorded do not). A
     /// material outside it ([`MaterialRange::outside`]) is an extrapolation: expect larger
     /// errors there.
     #[must_use]
