@@ -22,8 +22,9 @@ enum Command {
     /// Predict a drape with a trained model (the shipped one by default) and write it as
     /// OBJ, glTF binary, PLY or PNG; `--compare` also runs the simulator.
     Drape(cli::drape::DrapeArgs),
-    /// List the fabric presets and their material parameters.
-    Materials,
+    /// List the fabric presets and their material parameters; `--model` also names each
+    /// one's nearest training fabric.
+    Materials(cli::materials::MaterialsArgs),
     /// Generate a ground-truth dataset with the mass-spring solver (resumable, shardable).
     Simulate(cli::simulate::SimulateArgs),
     /// Dataset tools.
@@ -53,7 +54,7 @@ fn main() -> anyhow::Result<()> {
         Command::Template(args) => cli::template::run(args),
         Command::Body(args) => cli::body::run(args),
         Command::Drape(args) => cli::drape::run(args),
-        Command::Materials => cli::materials::run(),
+        Command::Materials(args) => cli::materials::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Dataset(command) => cli::dataset::run(command),
         Command::Train(args) => cli::train::run_train(args),

@@ -593,3 +593,71 @@ fn dataset_merge_joins_shards_and_completes_slim_samples() -> anyhow::Result<()>
     assert!(!out.exists());
     Ok(())
 }
+
+#[test]
+fn materials_names_each_presets_nearest_training_fabric() -> anyhow::Result<()> {
+    use garmatnet::model::{GarMatNetModel, SHIPPED_MODEL};
+    let presets = garmatnet::core::presets();
+    let list = |model: Option<&std::path::Path>| -> anyhow::Result<(bool, String)> {
+        let mut cmd = garmatnet();
+        cmd.env_remove(garmatnet::model::MODEL_ENV).arg("materials");
+        if let Some(path) = model {
+            cmd.arg("--model").arg(path);
+        }
+        let out = cmd.output()?;
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        Ok((out.status.success(), text))
+    };
+    let (ok, plain) = list(None)?;
+    assert!(ok, "{plain}");
+    assert_eq!(plain.lines().count(), 2 + presets.len(), "{plain}");
+    assert!(!plain.contains("nearest training fabric"), "{plain}");
+
+    // The shipped model, `--model` alone: its training fabrics read "trained on", every
+    // other preset names one of them and a positive distance.
+    let out = garmatnet()
+        .env_remove(garmatnet::model::MODEL_ENV)
+        .args(["materials", "--model"])
+        .output()?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{text}");
+    let device = garmatnet::select_device("cpu")?;
+    let shipped = GarMatNetModel::load(SHIPPED_MODEL, &device)?;
+    let trained: Vec<&str> = shipped
+        .meta
+        .provenance
+        .training_fabrics
+        .iter()
+        .map(|f| f.name.as_str())
+        .collect();
+    assert!(!trained.is_empty());
+    for p in presets {
+        let row = text
+            .lines()
+            .find(|l| l.starts_with(&format!("{} ", p.name)))
+            .unwrap_or_else(|| panic!("no row for {}: {text}", p.name));
+        if trained.contains(&p.name) {
+            assert!(row.ends_with("trained on"), "{row}");
+        } else {
+            let named = trained.iter().any(|t| row.contains(&format!("   {t} (0.")));
+            assert!(named && !row.ends_with("trained on"), "{row}");
+        }
+    }
+
+    // A model that does not record its fabrics is refused with the fix.
+    let dir = tempfile::tempdir()?;
+    let mut older = shipped;
+    older.meta.provenance.training_fabrics.clear();
+    let path = dir.path().join("older.safetensors");
+    older.save(&path)?;
+    let (ok, text) = list(Some(&path))?;
+    assert!(
+        !ok && text.contains("does not record the fabrics") && text.contains("re-train"),
+        "{text}"
+    );
+    Ok(())
+}
