@@ -97,8 +97,8 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             eprintln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
                  on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
-                 erred about twice as much as nearer ones (README, \"The shipped model and \
-                 Table 2\"): expect a larger error",
+                 erred about twice as much as nearer ones (README, \"The typed API\"): \
+                 expect a larger error",
                 model_path.display(),
                 fabric.name
             );

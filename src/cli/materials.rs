@@ -65,7 +65,7 @@ pub fn run(args: &MaterialsArgs) -> Result<()> {
             .and_then(|f| nearest(&n, f.iter().map(|f| (f, f.omega))))
         {
             None => String::new(),
-            Some((_, d)) if d == 0.0 => "   trained on".to_owned(),
+            Some((_, 0.0)) => "   trained on".to_owned(),
             Some((f, d)) => {
                 let far = if d >= FAR_FROM_TRAINING { " *" } else { "" };
                 format!("   {} ({d:.3}){far}", f.name)

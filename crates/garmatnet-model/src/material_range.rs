@@ -34,8 +34,8 @@ use crate::garmatnet_net::MATERIAL_DIM;
 
 /// Distance in normalised ω from the nearest training fabric at and beyond which a fabric is
 /// far from what a model learned. Measured on the 30 × 200 dataset over 42 (fabric, model)
-/// pairs — fabrics held out of models trained on 13, 26 or 52 fabrics (README, "The shipped
-/// model and Table 2") — the error over all poses of a fabric nearer than this averaged
+/// pairs — fabrics held out of models trained on 13, 26 or 52 fabrics (README, "The typed
+/// API") — the error over all poses of a fabric nearer than this averaged
 /// 8.7 mm (31 pairs), and 17.4 mm at or beyond it (11 pairs, none below 10.2).
 pub const FAR_FROM_TRAINING: Real = 0.3;
 

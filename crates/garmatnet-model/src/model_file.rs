@@ -72,7 +72,7 @@ pub struct TrainingProvenance {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub material_range: Option<MaterialRange>,
     /// The fabrics the nets were trained on, in the dataset's order (empty in files written
-    /// before they were recorded, the shipped model's before this version among them).
+    /// before they were recorded).
     /// [`crate::Predictor::nearest_training_fabric`] finds the one nearest a material: the
     /// farther it lies, the larger the error to expect.
     #[serde(skip_serializing_if = "Vec::is_empty")]

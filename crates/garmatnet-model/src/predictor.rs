@@ -234,7 +234,7 @@ impl Predictor {
     /// error grows with the distance to the nearest one: on Table 2's four targets it was
     /// 8.2 mm at 0.07 and 16–21 mm at 0.33–0.46, against 8.2 mm for the training fabrics
     /// themselves at poses the model never saw; at [`crate::FAR_FROM_TRAINING`] and beyond,
-    /// expect about twice the error (README, "The shipped model and Table 2").
+    /// expect about twice the error (README, "The typed API").
     #[must_use]
     pub fn nearest_training_fabric(&self, material: &Material) -> Option<(&TrainingFabric, Real)> {
         let omega = material.to_normalized();
