@@ -14,7 +14,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Parser;
 use garmatnet::core::render::{RenderSettings, save_png, side_by_side};
-use garmatnet::model::{Detail, Predictor, default_model_path, select_device};
+use garmatnet::model::{Detail, FAR_FROM_TRAINING, Predictor, default_model_path, select_device};
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
     DrapeView, comparison_image, resolve_material, resolve_pose, simulate_drape, slug,
@@ -94,6 +94,25 @@ fn main() -> Result<()> {
         args.detail,
         args.device
     );
+    // How far each fabric lies from what the model learned: the farther from its nearest
+    // training fabric, the larger the error to expect (README, "The typed API").
+    for (name, material) in &fabrics {
+        if let Some((nearest, distance)) = predictor.nearest_training_fabric(material) {
+            if distance == 0.0 {
+                println!("{name}: one of the model's training fabrics");
+                continue;
+            }
+            let far = if distance >= FAR_FROM_TRAINING {
+                ": far from every training fabric, expect a larger error"
+            } else {
+                ""
+            };
+            println!(
+                "{name}: nearest training fabric {} ({distance:.3} away in normalised ω){far}",
+                nearest.name
+            );
+        }
+    }
     // One untimed prediction warms the backend up.
     predictor.predict(&poses[0].1, &fabrics[0].1, args.detail)?;
 
