@@ -370,6 +370,114 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
 }
 
 #[test]
+fn simulate_draws_random_materials_between_presets() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let anchors = ["Silk Chiffon", "Denim Heavy", "Felt"];
+    let simulate =
+        |out: &str, between: &str, count: &str| -> anyhow::Result<std::process::Output> {
+            Ok(garmatnet()
+                .args([
+                    "simulate",
+                    "--materials",
+                    "Cotton Poplin",
+                    "--random-materials",
+                    count,
+                ])
+                .args([
+                    "--random-between",
+                    between,
+                    "--material-seed",
+                    "3",
+                    "--poses",
+                    "1",
+                ])
+                .args(["--resolution", "coarse", "--quiet", "--solver"])
+                .arg(&quick)
+                .arg("--out")
+                .arg(dir.path().join(out))
+                .output()?)
+        };
+    let out = simulate("a", &anchors.join(","), "4")?;
+    anyhow::ensure!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("a/manifest.json"))?)?;
+    let materials = manifest["materials"].as_array().expect("a material list");
+    let names: Vec<&str> = materials
+        .iter()
+        .filter_map(|m| m["name"].as_str())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "Cotton Poplin",
+            "mix-3-000",
+            "mix-3-001",
+            "mix-3-002",
+            "mix-3-003"
+        ]
+    );
+    // Each lies within the noise of a segment between two of the anchors: its distance to the
+    // nearest such segment is a few times 0.03 at most (6 components of 0.03 noise).
+    let anchor_omega: Vec<[f64; 6]> = anchors
+        .iter()
+        .map(|a| garmatnet::Material::preset(a).map(|m| m.to_normalized()))
+        .collect::<Result<_, _>>()?;
+    for m in &materials[1..] {
+        let w: Vec<f64> = m["omega_normalized"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|v| v.as_f64())
+            .collect();
+        assert!(
+            w.len() == 6 && w.iter().all(|v| (0.0..=1.0).contains(v)),
+            "{w:?}"
+        );
+        let mut nearest_segment = f64::INFINITY;
+        for (i, a) in anchor_omega.iter().enumerate() {
+            for b in &anchor_omega[i + 1..] {
+                // Closest point of segment a–b to w.
+                let ab: Vec<f64> = (0..6).map(|k| b[k] - a[k]).collect();
+                let t = ((0..6).map(|k| (w[k] - a[k]) * ab[k]).sum::<f64>()
+                    / ab.iter().map(|x| x * x).sum::<f64>())
+                .clamp(0.0, 1.0);
+                let d = (0..6)
+                    .map(|k| (w[k] - a[k] - t * ab[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                nearest_segment = nearest_segment.min(d);
+            }
+        }
+        assert!(
+            nearest_segment < 0.25,
+            "{w:?} is {nearest_segment} from every segment"
+        );
+    }
+    // Seeded, like the uniform draw: the same command gives the same materials.
+    let again = simulate("b", &anchors.join(","), "4")?;
+    anyhow::ensure!(again.status.success());
+    let b: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("b/manifest.json"))?)?;
+    assert_eq!(manifest["materials"], b["materials"]);
+    // One preset has no segment; no count has nothing to place: both refused, nothing written.
+    for (out, between, count, hint) in [
+        ("c", "Felt", "2", "at least two presets"),
+        ("d", "Felt,Linen", "0", "--random-materials N"),
+    ] {
+        let refused = simulate(out, between, count)?;
+        let text = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success() && text.contains(hint), "{text}");
+        assert!(!dir.path().join(out).exists());
+    }
+    Ok(())
+}
+
+#[test]
 fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;

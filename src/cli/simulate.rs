@@ -28,6 +28,13 @@ pub struct SimulateArgs {
     /// Seed of the random materials.
     #[arg(long, default_value_t = 0)]
     pub material_seed: u64,
+    /// Draw the random materials between these presets instead (`all` or a comma-separated
+    /// list, at least two): each lies at a uniform point of the segment between two distinct
+    /// presets of the list in normalised ω, plus Gaussian noise of 0.03 per component,
+    /// clamped to the cube, and is named `mix-SEED-INDEX`. Near the fabrics people use rather
+    /// than in the cube's empty corners.
+    #[arg(long, value_name = "PRESETS")]
+    pub random_between: Option<String>,
     /// The number of frames of the built-in motion sequence, or a pose file (.json, .npz, .npy).
     #[arg(long)]
     pub poses: String,
@@ -109,6 +116,44 @@ pub fn random_materials(count: usize, seed: u64) -> Result<Vec<(String, Material
         .collect()
 }
 
+/// Standard deviation of the noise added to each normalised component of a material drawn
+/// between two presets ([`mixed_materials`]).
+pub const MIX_NOISE: f64 = 0.03;
+
+/// `count` materials between pairs of `anchors` from `seed`, named `mix-SEED-INDEX`: each at a
+/// uniform point of the segment between two distinct anchors in normalised ω, plus Gaussian
+/// noise of [`MIX_NOISE`] per component, clamped to the unit cube.
+pub fn mixed_materials(
+    count: usize,
+    seed: u64,
+    anchors: &[(String, Material)],
+) -> Result<Vec<(String, Material)>> {
+    if count > 0 && anchors.len() < 2 {
+        bail!(
+            "--random-between needs at least two presets to draw between, got {}",
+            anchors.len()
+        );
+    }
+    let normalised: Vec<[f64; MATERIAL_DIM]> =
+        anchors.iter().map(|(_, m)| m.to_normalized()).collect();
+    let mut rng = SplitMix64::new(seed);
+    (0..count)
+        .map(|i| {
+            let a = rng.below(normalised.len());
+            let b = (a + 1 + rng.below(normalised.len() - 1)) % normalised.len();
+            let t = rng.next_f64();
+            let (a, b) = (normalised[a], normalised[b]);
+            let omega: [f64; MATERIAL_DIM] = std::array::from_fn(|k| {
+                (a[k] + t * (b[k] - a[k]) + MIX_NOISE * rng.normal()).clamp(0.0, 1.0)
+            });
+            Ok((
+                format!("mix-{seed}-{i:03}"),
+                Material::from_normalized(omega)?,
+            ))
+        })
+        .collect()
+}
+
 /// Whether `e` is the refusal to resume a dataset whose pose list differs.
 fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
     matches!(e, garmatnet::sim::Error::Core(CoreError::Mismatch { what, .. })
@@ -118,7 +163,17 @@ fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let mut materials = parse_materials(&args.materials)?;
-    materials.extend(random_materials(args.random_materials, args.material_seed)?);
+    match &args.random_between {
+        Some(_) if args.random_materials == 0 => {
+            bail!("--random-between says where to draw --random-materials N: give N too")
+        }
+        Some(spec) => materials.extend(mixed_materials(
+            args.random_materials,
+            args.material_seed,
+            &parse_materials(spec).context("--random-between")?,
+        )?),
+        None => materials.extend(random_materials(args.random_materials, args.material_seed)?),
+    }
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
         Ok(n) => {
