@@ -206,6 +206,62 @@ fn drape_writes_every_format_and_compares_with_the_simulator() -> anyhow::Result
 }
 
 #[test]
+fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let model = coarse_model(dir.path())?;
+    let glb = dir.path().join("walk.glb");
+    let obj = dir.path().join("walk.obj");
+    let output = garmatnet()
+        .args(["drape", "--frames", "10..=12", "--fps", "24", "--model"])
+        .arg(&model)
+        .arg("--out")
+        .arg(&glb)
+        .arg("--out")
+        .arg(&obj)
+        .output()?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("3 frames"), "{stdout}");
+    let bytes = std::fs::read(&glb)?;
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
+    for mesh in doc["meshes"].as_array().expect("meshes") {
+        assert_eq!(mesh["weights"].as_array().map(Vec::len), Some(2), "{mesh}");
+    }
+    assert_eq!(
+        doc["animations"][0]["channels"].as_array().map(Vec::len),
+        Some(2)
+    );
+    // Each numbered OBJ is that frame's prediction, as one `--pose FRAME` run writes it.
+    let single = dir.path().join("single.obj");
+    let status = garmatnet()
+        .args(["drape", "--pose", "11", "--model"])
+        .arg(&model)
+        .arg("--out")
+        .arg(&single)
+        .output()?
+        .status;
+    assert!(status.success());
+    let framed = garmatnet::core::read_obj(dir.path().join("walk.0011.obj"))?;
+    let alone = garmatnet::core::read_obj(&single)?;
+    let worst = framed
+        .vertices
+        .iter()
+        .zip(&alone.vertices)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-5, "frame 11 differs by {worst} m in a batch");
+    assert!(dir.path().join("walk.0010.obj").exists());
+    assert!(dir.path().join("walk.0012.obj").exists());
+    assert!(!dir.path().join("walk.0013.obj").exists());
+    Ok(())
+}
+
+#[test]
 fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let model = coarse_model(dir.path())?;
@@ -218,6 +274,11 @@ fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<(
         (vec!["--detail", "wrinkly"], "smooth"),
         (vec!["--pose", "99999"], "frame"),
         (vec!["--device", "tpu"], "tpu"),
+        (vec!["--frames", "0..3", "--pose", "12"], "leave --pose out"),
+        (vec!["--frames", "5"], "START..END"),
+        (vec!["--frames", "238..250"], "239"),
+        (vec!["--frames", "0..2", "--fps", "0"], "--fps"),
+        (vec!["--frames", "0..2", "--compare"], "--compare"),
     ];
     let out_arg = out.display().to_string();
     for (args, hint) in cases {

@@ -3,17 +3,18 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::model::{
-    Detail, FAR_FROM_TRAINING, Predictor, PushOut, default_model_path, select_device,
+    Detail, FAR_FROM_TRAINING, Predictor, PushOut, SEQUENCE_BATCH, default_model_path,
+    select_device,
 };
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
-    DrapeView, OutputFormat, comparison_image, resolve_material, resolve_pose, simulate_drape,
-    vertex_errors_mm,
+    DrapeSequence, DrapeView, OutputFormat, comparison_image, resolve_frames, resolve_material,
+    resolve_pose, simulate_drape, vertex_errors_mm,
 };
-use garmatnet::{CapsuleBody, Garment, TriMesh};
+use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
 
 /// Predict the T-shirt for one pose and fabric and write it.
 #[derive(Debug, Args)]
@@ -34,8 +35,17 @@ pub struct DrapeArgs {
     #[arg(long)]
     pub pose: Option<String>,
     /// Which pose of a pose file (default 0).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "frames")]
     pub frame: Option<usize>,
+    /// Predict a sequence instead of one pose: `START..END` (END excluded), `START..=END`,
+    /// `START..` or `all` of the pose file's poses (`--pose FILE`), or of the built-in
+    /// motion without `--pose`. A .glb output becomes one animation (garment and body);
+    /// .obj, .ply and .png outputs one file a frame, numbered (`drape.0012.obj`).
+    #[arg(long, conflicts_with = "compare")]
+    pub frames: Option<String>,
+    /// Frames per second of a `--frames` animation.
+    #[arg(long, default_value_t = 30.0, requires = "frames")]
+    pub fps: f64,
     /// `full` (both nets) or `smooth` (the generally-fitting net only).
     #[arg(long, default_value = "full")]
     pub detail: Detail,
@@ -66,6 +76,28 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         args.omega.as_deref(),
         "Cotton Poplin",
     )?;
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!(
+            "--fps must be a positive number of frames a second, got {}",
+            args.fps
+        );
+    }
+    let sequence = match &args.frames {
+        Some(frames) => {
+            if args
+                .pose
+                .as_deref()
+                .is_some_and(|p| p.trim().parse::<usize>().is_ok())
+            {
+                bail!(
+                    "--pose names one frame of the built-in motion; with --frames, leave --pose \
+                     out (frames of the built-in motion) or give a pose file"
+                );
+            }
+            Some(resolve_frames(args.pose.as_deref(), frames)?)
+        }
+        None => None,
+    };
     let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
     let device = select_device(&args.device)?;
     let model_path = args.model.clone().unwrap_or_else(default_model_path);
@@ -103,6 +135,9 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                 fabric.name
             );
         }
+    }
+    if let Some(sequence) = sequence {
+        return write_sequence(args, &predictor, &model_path, &material, &sequence);
     }
     // The first call warms the backend up; time the second.
     predictor.predict(&pose, &material, args.detail)?;
@@ -169,6 +204,69 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                 "wrote {} (prediction | simulation | error, red = 20 mm)",
                 path.display()
             );
+        }
+    }
+    Ok(())
+}
+
+/// Predicts `sequence` (frame number, pose) in batches, pushed out of the body as a single
+/// prediction is, and writes every output.
+fn write_sequence(
+    args: &DrapeArgs,
+    predictor: &Predictor,
+    model_path: &std::path::Path,
+    material: &Material,
+    sequence: &[(usize, Pose)],
+) -> Result<()> {
+    let poses: Vec<Pose> = sequence.iter().map(|(_, p)| p.clone()).collect();
+    // A first batch warms the backend up, so the timing is the steady state's.
+    predictor.predict_sequence(
+        &poses[..poses.len().min(SEQUENCE_BATCH)],
+        material,
+        args.detail,
+    )?;
+    let started = Instant::now();
+    let predicted = predictor.predict_sequence(&poses, material, args.detail)?;
+    let total_ms = started.elapsed().as_secs_f64() * 1e3;
+    let garments = predicted
+        .into_iter()
+        .map(|mesh| TriMesh::new(mesh.vertices, mesh.faces))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (first, last) = (sequence[0].0, sequence[sequence.len() - 1].0);
+    println!(
+        "predicted frames {first}..={last} ({} frames, {} detail) in {total_ms:.1} ms, \
+         {:.2} ms a frame, with {}",
+        sequence.len(),
+        args.detail,
+        total_ms / sequence.len() as f64,
+        model_path.display()
+    );
+    let body = predictor.body().context("the predictor has no body")?;
+    let bodies: Vec<TriMesh> = sequence.iter().map(|(_, p)| body.pose(p).mesh()).collect();
+    let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
+    let view = DrapeSequence {
+        frames: &frames,
+        bodies: &bodies,
+        garments: &garments,
+        fps: args.fps,
+    };
+    for out in &args.out {
+        let written = view
+            .write(out)
+            .with_context(|| format!("writing {}", out.display()))?;
+        match written.as_slice() {
+            [one] if one == out => println!(
+                "wrote {} ({} frames at {} frames a second)",
+                out.display(),
+                frames.len(),
+                args.fps
+            ),
+            _ => println!(
+                "wrote {} files, {} … {}",
+                written.len(),
+                written[0].display(),
+                written[written.len() - 1].display()
+            ),
         }
     }
     Ok(())

@@ -2,10 +2,10 @@
 //! outputs chosen by file extension (OBJ, glTF binary, PLY, PNG render), and the comparison
 //! of a prediction with the simulator's ground truth for the same input.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use garmatnet_core::gltf::{GlbMesh, write_glb};
+use garmatnet_core::gltf::{GlbAnimatedMesh, GlbMesh, write_glb, write_glb_animation};
 use garmatnet_core::read_poses;
 use garmatnet_core::render::{
     BODY_COLOR, Camera, Color, GARMENT_COLOR, RenderItem, RenderSettings, Shading, heat_colors,
@@ -59,6 +59,86 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
         )
         .into()
     })
+}
+
+/// Resolves a `--frames` argument: which poses of a pose file (`pose_file`, `.json`, `.npz`,
+/// `.npy`), or of the built-in motion sequence ([`DEFAULT_MOTION_SEED`],
+/// [`DEFAULT_MOTION_FRAMES`]) when there is none, to predict in order. `frames` is
+/// `START..END` (END excluded), `START..=END`, `START..` (to the last pose) or `all`;
+/// returns each pose with its index.
+///
+/// # Errors
+/// [`CoreError::InvalidArgument`] for another form or an empty range;
+/// [`CoreError::OutOfRange`] for a range past the poses there are; the pose file reader's
+/// errors (missing file, malformed content, NaN) otherwise.
+pub fn resolve_frames(pose_file: Option<&str>, frames: &str) -> Result<Vec<(usize, Pose)>> {
+    let (poses, source) = match pose_file {
+        Some(file) => (read_poses(Path::new(file))?, format!("`{file}`")),
+        None => (
+            MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate(),
+            "the built-in motion".to_owned(),
+        ),
+    };
+    let range = frame_range(frames, poses.len(), &source)?;
+    Ok(range.clone().zip(poses[range].iter().cloned()).collect())
+}
+
+/// The poses `text` (`START..END`, `START..=END`, `START..` or `all`) picks of `count`.
+fn frame_range(text: &str, count: usize, source: &str) -> Result<std::ops::Range<usize>> {
+    let text = text.trim();
+    let malformed = || {
+        CoreError::InvalidArgument(format!(
+            "cannot read the frames `{text}`: write START..END (END excluded), START..=END, \
+             START.. or all, e.g. 0..120"
+        ))
+    };
+    let number = |t: &str| t.trim().parse::<usize>().map_err(|_| malformed());
+    let range = if text.eq_ignore_ascii_case("all") {
+        0..count
+    } else if let Some((start, end)) = text.split_once("..=") {
+        number(start)?..number(end)?.checked_add(1).ok_or_else(malformed)?
+    } else if let Some((start, end)) = text.split_once("..") {
+        let end = if end.trim().is_empty() {
+            count
+        } else {
+            number(end)?
+        };
+        number(start)?..end
+    } else {
+        return Err(malformed().into());
+    };
+    if range.is_empty() {
+        return Err(CoreError::InvalidArgument(format!(
+            "the frames `{text}` name no pose: END must lie past START"
+        ))
+        .into());
+    }
+    if range.end > count {
+        return Err(CoreError::OutOfRange {
+            what: format!("last frame of `{text}` in {source} (--frames)"),
+            value: (range.end - 1) as Real,
+            min: 0.0,
+            max: count.saturating_sub(1) as Real,
+            hint: String::new(),
+        }
+        .into());
+    }
+    Ok(range)
+}
+
+/// `path` with a frame number before its extension, `drape.obj` → `drape.0007.obj`, wide
+/// enough for `last`, so a sequence's files sort in frame order.
+#[must_use]
+pub fn numbered_path(path: &Path, frame: usize, last: usize) -> PathBuf {
+    let width = last.max(1).to_string().len().max(4);
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}.{frame:0width$}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.{frame:0width$}"),
+    };
+    path.with_file_name(name)
 }
 
 /// The material of a `--material` / `--omega` pair: `omega` (normalised ω, see
@@ -247,6 +327,82 @@ impl DrapeView<'_> {
     }
 }
 
+/// A garment on its posed body at a sequence of frames, ready to export as an animation.
+#[derive(Debug, Clone, Copy)]
+pub struct DrapeSequence<'a> {
+    /// The frame numbers (e.g. of the pose file), one per mesh, in playing order.
+    pub frames: &'a [usize],
+    /// The posed body mesh at each frame (metres).
+    pub bodies: &'a [TriMesh],
+    /// The garment mesh at each frame (metres).
+    pub garments: &'a [TriMesh],
+    /// Frames per second of the animation.
+    pub fps: f64,
+}
+
+impl DrapeSequence<'_> {
+    /// Writes the sequence to `path` by its extension ([`OutputFormat`]), atomically: GLB
+    /// as one animated file (garment and body, [`write_glb_animation`]), OBJ, PLY and PNG as
+    /// one file a frame, numbered ([`numbered_path`]). Returns the paths written.
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidArgument`] for an unknown extension or no frames;
+    /// [`CoreError::Mismatch`] when the lists differ in length; the writers' errors
+    /// otherwise (files already written for earlier frames stay, each complete).
+    pub fn write(&self, path: &Path) -> Result<Vec<PathBuf>> {
+        let format = OutputFormat::from_path(path)?;
+        let n = self.frames.len();
+        if n == 0 {
+            return Err(CoreError::InvalidArgument("a drape sequence needs a frame".into()).into());
+        }
+        for (what, len) in [
+            ("bodies", self.bodies.len()),
+            ("garments", self.garments.len()),
+        ] {
+            if len != n {
+                return Err(CoreError::Mismatch {
+                    what: format!("{what} of the drape sequence"),
+                    expected: format!("{n} (one per frame)"),
+                    got: len.to_string(),
+                }
+                .into());
+            }
+        }
+        if format == OutputFormat::Glb {
+            write_glb_animation(
+                path,
+                &[
+                    GlbAnimatedMesh {
+                        name: "garment",
+                        frames: self.garments,
+                        color: GARMENT_COLOR,
+                    },
+                    GlbAnimatedMesh {
+                        name: "body",
+                        frames: self.bodies,
+                        color: BODY_COLOR,
+                    },
+                ],
+                self.fps,
+            )?;
+            return Ok(vec![path.to_owned()]);
+        }
+        let last = self.frames.iter().copied().max().unwrap_or(0);
+        let mut written = Vec::with_capacity(n);
+        for ((&frame, body), garment) in self.frames.iter().zip(self.bodies).zip(self.garments) {
+            let out = numbered_path(path, frame, last);
+            DrapeView {
+                body,
+                garment,
+                garment_colors: None,
+            }
+            .write(&out)?;
+            written.push(out);
+        }
+        Ok(written)
+    }
+}
+
 /// The simulator's drape of one (pose, material): the ground truth a prediction is compared
 /// with.
 #[derive(Debug, Clone, PartialEq)]
@@ -379,6 +535,96 @@ mod tests {
         assert_eq!(resolve_pose(Some(file), Some(1))?, frames[1]);
         assert!(resolve_pose(Some(file), Some(2)).is_err());
         assert!(resolve_pose(Some("/no/such/poses.json"), None).is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn frames_resolve_as_ranges_of_a_file_or_the_motion() -> anyhow::Result<()> {
+        let motion = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
+        let picked = resolve_frames(None, "10..13")?;
+        assert_eq!(
+            picked.iter().map(|(f, _)| *f).collect::<Vec<_>>(),
+            vec![10, 11, 12]
+        );
+        assert_eq!(picked[2].1, motion[12]);
+        assert_eq!(resolve_frames(None, "10..=12")?.len(), 3);
+        assert_eq!(resolve_frames(None, "230..")?.len(), 10);
+        assert_eq!(resolve_frames(None, "all")?.len(), DEFAULT_MOTION_FRAMES);
+        let dir = tempfile::tempdir()?;
+        let file = dir.path().join("p.json");
+        garmatnet_core::write_poses_json(&file, &motion[..5])?;
+        let file = file.to_str().expect("utf-8 path");
+        let all = resolve_frames(Some(file), "all")?;
+        assert_eq!(all.len(), 5);
+        assert_eq!(all[4], (4, motion[4].clone()));
+        for (bad, hint) in [
+            ("3..9", "4"), // past the file's last pose, which is named
+            ("3..3", "END must lie past START"),
+            ("4..=2", "END must lie past START"),
+            ("a..3", "START..END"),
+            ("7", "START..END"),
+            ("-1..3", "START..END"),
+        ] {
+            let err = resolve_frames(Some(file), bad).expect_err(bad);
+            assert!(err.to_string().contains(hint), "{bad}: {err}");
+        }
+        assert!(resolve_frames(Some("/no/such/poses.json"), "all").is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn numbered_paths_sort_in_frame_order() {
+        let p = Path::new("out/drape.obj");
+        assert_eq!(numbered_path(p, 7, 239), Path::new("out/drape.0007.obj"));
+        assert_eq!(
+            numbered_path(p, 7, 12_000),
+            Path::new("out/drape.00007.obj")
+        );
+        assert_eq!(numbered_path(Path::new("x"), 3, 9), Path::new("x.0003"));
+    }
+
+    #[test]
+    fn a_sequence_writes_one_animation_or_one_file_a_frame() -> anyhow::Result<()> {
+        let body = CapsuleBody::smpl_neutral();
+        let shirt = Garment::tshirt(Resolution::Coarse, &body)?;
+        let motion = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
+        let frames = [3, 4];
+        let bodies: Vec<TriMesh> = frames
+            .iter()
+            .map(|&f| body.pose(&motion[f]).mesh())
+            .collect();
+        let garments = vec![shirt.rest.clone(), shirt.rest.clone()];
+        let sequence = DrapeSequence {
+            frames: &frames,
+            bodies: &bodies,
+            garments: &garments,
+            fps: 30.0,
+        };
+        let dir = tempfile::tempdir()?;
+        let glb = dir.path().join("a.glb");
+        assert_eq!(sequence.write(&glb)?, vec![glb.clone()]);
+        let bytes = std::fs::read(&glb)?;
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
+        let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
+        assert_eq!(
+            doc["animations"][0]["channels"].as_array().map(Vec::len),
+            Some(2)
+        );
+        let objs = sequence.write(&dir.path().join("a.obj"))?;
+        assert_eq!(
+            objs,
+            vec![dir.path().join("a.0003.obj"), dir.path().join("a.0004.obj")]
+        );
+        assert!(objs.iter().all(|p| p.exists()));
+        let short = DrapeSequence {
+            garments: &garments[..1],
+            ..sequence
+        };
+        let err = short
+            .write(&dir.path().join("b.glb"))
+            .expect_err("one garment, two frames");
+        assert!(err.to_string().contains("garments"), "{err}");
+        assert!(!dir.path().join("b.glb").exists());
         Ok(())
     }
 
