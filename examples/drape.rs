@@ -4,7 +4,8 @@
 //! `$GARMATNET_MODEL`) for a few poses of the built-in motion and three contrasting fabrics,
 //! prints the prediction time of every frame, and writes for each an OBJ, a glTF binary
 //! (`.glb`, garment + body: open it in Blender or any browser glTF viewer) and a PNG render,
-//! plus one PNG per pose with the fabrics side by side. `--compare` also runs the simulator
+//! plus one PNG per pose with the fabrics side by side, and the first fabric over the first
+//! `--motion-frames` frames of the motion as one animated `.glb`. `--compare` also runs the simulator
 //! on the same input and prints the error (mm) and the speed-up, with a render of
 //! prediction | simulation | per-vertex error.
 
@@ -17,8 +18,8 @@ use garmatnet::core::render::{RenderSettings, save_png, side_by_side};
 use garmatnet::model::{Detail, FAR_FROM_TRAINING, Predictor, default_model_path, select_device};
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
-    DrapeView, comparison_image, resolve_material, resolve_pose, simulate_drape, slug,
-    vertex_errors_mm,
+    DrapeSequence, DrapeView, comparison_image, resolve_frames, resolve_material, resolve_pose,
+    simulate_drape, slug, vertex_errors_mm,
 };
 use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
 
@@ -56,6 +57,10 @@ struct Args {
     /// Also run the simulator for every input: error (mm), speed-up, side-by-side render.
     #[arg(long)]
     compare: bool,
+    /// Frames of the built-in motion to predict for the first fabric and write as one
+    /// animated glTF (`motion_<fabric>.glb`, 24 frames a second); 0 for none.
+    #[arg(long, default_value_t = 48)]
+    motion_frames: usize,
 }
 
 fn main() -> Result<()> {
@@ -176,6 +181,35 @@ fn main() -> Result<()> {
             &args.out.join(format!("{pose_name}_fabrics.png")),
             &side_by_side(&panels, settings.background),
         )?;
+    }
+    if args.motion_frames > 0 {
+        // A whole motion at once: batched through the nets, one animated glTF.
+        let (name, material) = &fabrics[0];
+        let sequence = resolve_frames(None, &format!("0..{}", args.motion_frames))?;
+        let (frames, motion): (Vec<usize>, Vec<Pose>) = sequence.into_iter().unzip();
+        let started = Instant::now();
+        let predicted = predictor.predict_sequence(&motion, material, args.detail)?;
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        let garments = predicted
+            .into_iter()
+            .map(|m| TriMesh::new(m.vertices, m.faces))
+            .collect::<Result<Vec<_>, _>>()?;
+        let bodies: Vec<TriMesh> = motion.iter().map(|p| body_model.pose(p).mesh()).collect();
+        let path = args.out.join(format!("motion_{}.glb", slug(name)));
+        DrapeSequence {
+            frames: &frames,
+            bodies: &bodies,
+            garments: &garments,
+            fps: 24.0,
+        }
+        .write(&path)?;
+        println!(
+            "{name}: frames 0..{} of the motion predicted in {ms:.1} ms ({:.2} ms a frame), \
+             animated in {}",
+            args.motion_frames,
+            ms / frames.len() as f64,
+            path.display()
+        );
     }
     println!(
         "wrote OBJ, GLB and PNG files to {} (<pose>_fabrics.png: the fabrics side by side)",
