@@ -194,11 +194,11 @@ fn main() -> Result<()> {
             .into_iter()
             .map(|m| TriMesh::new(m.vertices, m.faces))
             .collect::<Result<Vec<_>, _>>()?;
-        let bodies: Vec<TriMesh> = motion.iter().map(|p| body_model.pose(p).mesh()).collect();
         let path = args.out.join(format!("motion_{}.glb", slug(name)));
         DrapeSequence {
             frames: &frames,
-            bodies: &bodies,
+            body: &body_model,
+            poses: &motion,
             garments: &garments,
             fps: 24.0,
         }

@@ -229,12 +229,17 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     let bytes = std::fs::read(&glb)?;
     let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
     let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
-    for mesh in doc["meshes"].as_array().expect("meshes") {
-        assert_eq!(mesh["weights"].as_array().map(Vec::len), Some(2), "{mesh}");
-    }
+    // The garment: two morph targets after frame 10. The body: skinned, its 24 joints
+    // rotated by the animation.
+    assert_eq!(doc["meshes"][0]["name"], "garment");
+    assert_eq!(
+        doc["meshes"][0]["weights"].as_array().map(Vec::len),
+        Some(2)
+    );
+    assert_eq!(doc["skins"].as_array().map(Vec::len), Some(1));
     assert_eq!(
         doc["animations"][0]["channels"].as_array().map(Vec::len),
-        Some(2)
+        Some(1 + garmatnet::core::JOINT_COUNT)
     );
     // Each numbered OBJ is that frame's prediction, as one `--pose FRAME` run writes it.
     let single = dir.path().join("single.obj");

@@ -242,11 +242,11 @@ fn write_sequence(
         model_path.display()
     );
     let body = predictor.body().context("the predictor has no body")?;
-    let bodies: Vec<TriMesh> = sequence.iter().map(|(_, p)| body.pose(p).mesh()).collect();
     let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
     let view = DrapeSequence {
         frames: &frames,
-        bodies: &bodies,
+        body,
+        poses: &poses,
         garments: &garments,
         fps: args.fps,
     };

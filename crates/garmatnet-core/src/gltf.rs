@@ -11,8 +11,11 @@ use serde_json::json;
 
 use crate::error::{Error, Result};
 use crate::io::write_bytes_atomic;
+use crate::math::{Real, Vec3};
 use crate::mesh::TriMesh;
+use crate::pose::Pose;
 use crate::render::Color;
+use crate::skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton};
 
 /// One mesh to export.
 #[derive(Debug, Clone, Copy)]
@@ -31,6 +34,9 @@ const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
+const UNSIGNED_SHORT: u32 = 5123;
+/// The most joints glTF's `JOINTS_0`/`WEIGHTS_0` give one vertex.
+const MAX_INFLUENCES: usize = 4;
 
 fn srgb_to_linear(c: u8) -> f64 {
     let c = f64::from(c) / 255.0;
@@ -53,6 +59,29 @@ pub struct GlbAnimatedMesh<'a> {
     pub color: Color,
 }
 
+/// A mesh skinned to an SMPL skeleton and moved by a sequence of poses, for
+/// [`write_glb_animation`]: written once, in its rest pose, with its skeleton as glTF joint
+/// nodes whose rotations the animation drives (a few bytes a joint a frame instead of a
+/// copy of every vertex). Viewers pose it by linear blend skinning with these weights,
+/// which is how [`crate::PosedBody::mesh`] poses the body's rest mesh, so each frame shows
+/// that mesh (to `f32` rounding).
+#[derive(Debug, Clone, Copy)]
+pub struct GlbSkinnedMesh<'a> {
+    /// Node name shown in viewers (the joints are named after SMPL's).
+    pub name: &'a str,
+    /// The mesh in the skeleton's rest pose (metres, y up).
+    pub rest: &'a TriMesh,
+    /// Each vertex's skinning weights: 1 to 4 `(joint, weight)` pairs summing to one, as
+    /// [`crate::CapsuleBody::rest_mesh_weights`] gives them.
+    pub weights: &'a [Vec<(usize, Real)>],
+    /// The skeleton the weights refer to.
+    pub skeleton: &'a Skeleton,
+    /// The pose at each frame, in order.
+    pub poses: &'a [Pose],
+    /// Base colour (sRGB).
+    pub color: Color,
+}
+
 /// Writes `meshes` as one `.glb` file, atomically.
 ///
 /// # Errors
@@ -71,26 +100,30 @@ pub fn write_glb(path: impl AsRef<Path>, meshes: &[GlbMesh<'_>]) -> Result<()> {
     glb.write(path, None)
 }
 
-/// Writes `meshes` as one animated `.glb` file, atomically: each mesh is its first frame,
-/// every later frame one morph target of it, and one animation ("drape", `fps` frames a
-/// second, linear interpolation) moves each mesh through its frames. Blender imports the
-/// frames as shape keys named `frame_0001`, … with the animation driving them; three.js and
-/// browser glTF viewers play it.
+/// Writes `meshes` and `skinned` as one animated `.glb` file, atomically, with one animation
+/// ("drape", `fps` frames a second, linear interpolation) over their frames. Each of
+/// `meshes` is stored as its first frame with every later frame one morph target of it;
+/// Blender imports those as shape keys named `frame_0001`, … driven by the animation. Each
+/// of `skinned` is stored once with its skeleton, whose joint rotations the animation
+/// drives ([`GlbSkinnedMesh`]). Blender, three.js and browser glTF viewers play both.
 ///
-/// All meshes must have the same number of frames. One frame writes a still scene, as
-/// [`write_glb`].
+/// Every mesh must have the same number of frames (poses, for `skinned`). One frame writes
+/// a still scene.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for an empty list, a mesh without frames, an empty mesh, a
-/// frame rate that is not a positive finite number, or a file past glTF binary's 4 GiB;
-/// [`Error::Mismatch`] when a mesh's frames differ in topology or the meshes in frame
-/// count; [`Error::Io`] when the file cannot be written. Nothing is written on error.
+/// [`Error::InvalidArgument`] for no mesh at all, a mesh without frames, an empty mesh, a
+/// frame rate that is not a positive finite number, skinning weights that are not 1 to 4
+/// finite, non-negative pairs on valid joints summing to one, or a file past glTF binary's
+/// 4 GiB; [`Error::Mismatch`] when a mesh's frames differ in topology, the weights do not
+/// match the vertices, or the meshes differ in frame count; [`Error::Io`] when the file
+/// cannot be written. Nothing is written on error.
 pub fn write_glb_animation(
     path: impl AsRef<Path>,
     meshes: &[GlbAnimatedMesh<'_>],
+    skinned: &[GlbSkinnedMesh<'_>],
     fps: f64,
 ) -> Result<()> {
-    if meshes.is_empty() {
+    if meshes.is_empty() && skinned.is_empty() {
         return Err(Error::InvalidArgument(
             "write_glb_animation needs at least one mesh".into(),
         ));
@@ -100,7 +133,11 @@ pub fn write_glb_animation(
             "the frame rate must be a positive number of frames a second, got {fps}"
         )));
     }
-    let frame_count = meshes[0].frames.len();
+    let (frame_count, first_name) = match (meshes.first(), skinned.first()) {
+        (Some(m), _) => (m.frames.len(), m.name),
+        (None, Some(s)) => (s.poses.len(), s.name),
+        (None, None) => unreachable!("checked above"),
+    };
     let mut glb = GlbBuilder::default();
     for item in meshes {
         let Some((first, rest)) = item.frames.split_first() else {
@@ -112,7 +149,7 @@ pub fn write_glb_animation(
         if item.frames.len() != frame_count {
             return Err(Error::Mismatch {
                 what: format!("frames of mesh `{}`", item.name),
-                expected: format!("{frame_count} (as many as mesh `{}`)", meshes[0].name),
+                expected: format!("{frame_count} (as many as mesh `{first_name}`)"),
                 got: item.frames.len().to_string(),
             });
         }
@@ -146,8 +183,17 @@ pub fn write_glb_animation(
         };
         glb.add_mesh(&still, rest)?;
     }
-    let animation = (frame_count > 1).then_some(fps);
-    glb.write(path, animation)
+    for item in skinned {
+        if item.poses.len() != frame_count {
+            return Err(Error::Mismatch {
+                what: format!("poses of skinned mesh `{}`", item.name),
+                expected: format!("{frame_count} (as many as mesh `{first_name}` has frames)"),
+                got: item.poses.len().to_string(),
+            });
+        }
+        glb.add_skinned(item)?;
+    }
+    glb.write(path, (frame_count > 1).then_some(fps))
 }
 
 /// The parts of a glTF document under construction, and its binary chunk.
@@ -159,15 +205,20 @@ struct GlbBuilder {
     meshes: Vec<serde_json::Value>,
     materials: Vec<serde_json::Value>,
     nodes: Vec<serde_json::Value>,
+    /// The nodes the scene lists (joint nodes other than a skeleton's root are children).
+    roots: Vec<usize>,
+    skins: Vec<serde_json::Value>,
     /// Nodes with morph targets, and their target count.
     morphed: Vec<(usize, usize)>,
+    /// Joint nodes, and their rotation (x, y, z, w) at every frame.
+    rotated: Vec<(usize, Vec<f32>)>,
 }
 
 fn f32_bytes(v: &[f32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-fn flat(points: &[crate::math::Vec3]) -> Vec<f32> {
+fn flat(points: &[Vec3]) -> Vec<f32> {
     points
         .iter()
         .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
@@ -200,7 +251,12 @@ impl GlbBuilder {
         target: Option<u32>,
         bounds: bool,
     ) -> usize {
-        let width = if kind == "VEC3" { 3 } else { 1 };
+        let width = match kind {
+            "VEC3" => 3,
+            "VEC4" => 4,
+            "MAT4" => 16,
+            _ => 1,
+        };
         let view = self.push_view(&f32_bytes(values), target);
         let mut accessor = json!({"bufferView": view, "componentType": FLOAT, "count": values.len() / width, "type": kind});
         if bounds {
@@ -293,18 +349,141 @@ impl GlbBuilder {
         }
         gltf_mesh["primitives"] = json!([primitive]);
         self.meshes.push(gltf_mesh);
+        self.roots.push(self.nodes.len());
         self.nodes.push(json!({"name": item.name, "mesh": k}));
         Ok(())
     }
 
-    /// The animation that shows frame `f` (0 = the meshes as stored, `f` ≥ 1 = morph
-    /// target `f − 1` at full weight) at time `f / fps`, interpolating linearly between.
-    fn animation(&mut self, fps: f64) -> serde_json::Value {
-        let targets = self.morphed.iter().map(|&(_, t)| t).max().unwrap_or(0);
-        let times: Vec<f32> = (0..=targets).map(|f| (f as f64 / fps) as f32).collect();
+    /// Adds `item`: its rest mesh with `JOINTS_0`/`WEIGHTS_0`, its skeleton as joint nodes
+    /// (posed at the first frame) and a skin binding them, and each joint's rotation at every
+    /// frame for the animation.
+    fn add_skinned(&mut self, item: &GlbSkinnedMesh<'_>) -> Result<()> {
+        let n = item.rest.vertex_count();
+        if item.weights.len() != n {
+            return Err(Error::Mismatch {
+                what: format!("skinning weights of mesh `{}`", item.name),
+                expected: format!("{n} (one list per vertex)"),
+                got: item.weights.len().to_string(),
+            });
+        }
+        if item.poses.is_empty() {
+            return Err(Error::InvalidArgument(format!(
+                "skinned mesh `{}` has no poses",
+                item.name
+            )));
+        }
+        let mut joints = Vec::with_capacity(n * MAX_INFLUENCES * 2);
+        let mut weights = Vec::with_capacity(n * MAX_INFLUENCES);
+        for (v, list) in item.weights.iter().enumerate() {
+            let sum: Real = list.iter().map(|&(_, w)| w).sum();
+            let valid = (1..=MAX_INFLUENCES).contains(&list.len())
+                && list
+                    .iter()
+                    .all(|&(j, w)| j < JOINT_COUNT && w.is_finite() && w >= 0.0)
+                && (sum - 1.0).abs() < 1e-6;
+            if !valid {
+                return Err(Error::InvalidArgument(format!(
+                    "the skinning weights of vertex {v} of mesh `{}` must be 1 to \
+                     {MAX_INFLUENCES} (joint < {JOINT_COUNT}, weight ≥ 0) pairs summing to \
+                     one, got {list:?}",
+                    item.name
+                )));
+            }
+            for slot in 0..MAX_INFLUENCES {
+                let (j, w) = list.get(slot).copied().unwrap_or((0, 0.0));
+                joints.extend_from_slice(&(j as u16).to_le_bytes());
+                weights.push(w as f32);
+            }
+        }
+        self.add_mesh(
+            &GlbMesh {
+                name: item.name,
+                mesh: item.rest,
+                color: item.color,
+                vertex_colors: None,
+            },
+            &[],
+        )?;
+        // `add_mesh` made the mesh's node a scene root; give it the skin attributes.
+        let mesh_node = self.nodes.len() - 1;
+        let joints_view = self.push_view(&joints, Some(ARRAY_BUFFER));
+        self.accessors.push(json!({"bufferView": joints_view, "componentType": UNSIGNED_SHORT, "count": n, "type": "VEC4"}));
+        let joints_acc = self.accessors.len() - 1;
+        let weights_acc = self.push_floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
+        let mesh = self.nodes[mesh_node]["mesh"].as_u64().unwrap_or_default() as usize;
+        let attributes = &mut self.meshes[mesh]["primitives"][0]["attributes"];
+        attributes["JOINTS_0"] = json!(joints_acc);
+        attributes["WEIGHTS_0"] = json!(weights_acc);
+
+        // The skeleton: node j's translation is its rest offset from its parent, its
+        // rotation the pose's local rotation; the inverse bind matrix undoes the rest
+        // position, as `Skeleton::skinning_transforms` does.
+        let rest = item.skeleton.rest_joints();
+        let base = self.nodes.len();
+        let quat = |pose: &Pose, j: usize| -> [f32; 4] {
+            let q = pose.joint_rotation(j);
+            [q.i as f32, q.j as f32, q.k as f32, q.w as f32]
+        };
+        for j in 0..JOINT_COUNT {
+            let offset = match PARENTS[j] {
+                Some(p) => rest[j] - rest[p],
+                None => rest[j],
+            };
+            let mut node = json!({
+                "name": format!("{}_{}", item.name, JOINT_NAMES[j]),
+                "translation": [offset.x as f32, offset.y as f32, offset.z as f32],
+                "rotation": quat(&item.poses[0], j),
+            });
+            let children: Vec<usize> = (0..JOINT_COUNT)
+                .filter(|&c| PARENTS[c] == Some(j))
+                .map(|c| base + c)
+                .collect();
+            if !children.is_empty() {
+                node["children"] = json!(children);
+            }
+            if PARENTS[j].is_none() {
+                self.roots.push(base + j);
+            }
+            self.nodes.push(node);
+            let track: Vec<f32> = item.poses.iter().flat_map(|p| quat(p, j)).collect();
+            self.rotated.push((base + j, track));
+        }
+        let mut inverse_binds = Vec::with_capacity(JOINT_COUNT * 16);
+        for r in rest {
+            // Column-major 4×4: identity with translation −r.
+            let t = [-r.x as f32, -r.y as f32, -r.z as f32];
+            inverse_binds.extend_from_slice(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+            inverse_binds.extend_from_slice(&[0.0, 0.0, 1.0, 0.0, t[0], t[1], t[2], 1.0]);
+        }
+        let ibm = self.push_floats(&inverse_binds, "MAT4", None, false);
+        let root = (0..JOINT_COUNT)
+            .find(|&j| PARENTS[j].is_none())
+            .unwrap_or_default();
+        self.skins.push(json!({
+            "name": format!("{}_skeleton", item.name),
+            "joints": (base..base + JOINT_COUNT).collect::<Vec<_>>(),
+            "inverseBindMatrices": ibm,
+            "skeleton": base + root,
+        }));
+        self.nodes[mesh_node]["skin"] = json!(self.skins.len() - 1);
+        Ok(())
+    }
+
+    /// The animation that shows frame `f` at time `f / fps`, interpolating linearly
+    /// between: morph target `f − 1` at full weight (frame 0: the meshes as stored), and each
+    /// joint at its rotation of frame `f`.
+    fn animation(&mut self, fps: f64, frame_count: usize) -> serde_json::Value {
+        let times: Vec<f32> = (0..frame_count).map(|f| (f as f64 / fps) as f32).collect();
         let input = self.push_floats(&times, "SCALAR", None, true);
         let mut samplers = Vec::new();
         let mut channels = Vec::new();
+        for (node, track) in std::mem::take(&mut self.rotated) {
+            let output = self.push_floats(&track, "VEC4", None, false);
+            samplers.push(json!({"input": input, "output": output, "interpolation": "LINEAR"}));
+            channels.push(
+                json!({"sampler": samplers.len() - 1, "target": {"node": node, "path": "rotation"}}),
+            );
+        }
         let morphed = self.morphed.clone();
         for (node, count) in morphed {
             let mut weights = vec![0.0_f32; (count + 1) * count];
@@ -323,16 +502,21 @@ impl GlbBuilder {
     /// Finishes the document (with the animation at `fps` frames a second, if any) and writes
     /// the file atomically.
     fn write(mut self, path: impl AsRef<Path>, animation: Option<f64>) -> Result<()> {
+        let frame_count = match (self.morphed.first(), self.rotated.first()) {
+            (Some(&(_, targets)), _) => targets + 1,
+            (None, Some((_, track))) => track.len() / 4,
+            (None, None) => 1,
+        };
         let animation = animation
-            .filter(|_| !self.morphed.is_empty())
-            .map(|fps| self.animation(fps));
+            .filter(|_| frame_count > 1)
+            .map(|fps| self.animation(fps, frame_count));
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut document = json!({
             "asset": {"version": "2.0", "generator": concat!("garmatnet ", env!("CARGO_PKG_VERSION"))},
             "scene": 0,
-            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "scenes": [{"nodes": self.roots}],
             "nodes": self.nodes,
             "meshes": self.meshes,
             "materials": self.materials,
@@ -342,6 +526,9 @@ impl GlbBuilder {
         });
         if let Some(animation) = animation {
             document["animations"] = json!([animation]);
+        }
+        if !self.skins.is_empty() {
+            document["skins"] = json!(self.skins);
         }
         let mut json_bytes = serde_json::to_vec(&document)
             .map_err(|e| Error::InvalidArgument(format!("glTF JSON: {e}")))?;
@@ -495,6 +682,7 @@ mod tests {
                     color: [200, 200, 200],
                 },
             ],
+            &[],
             25.0,
         )
         .unwrap();
@@ -544,6 +732,169 @@ mod tests {
     }
 
     #[test]
+    fn a_skinned_mesh_follows_its_poses_as_linear_blend_skinning_does() {
+        use crate::pose::JointLimits;
+        use crate::rng::SplitMix64;
+        use crate::skeleton::{blend_point, joint_index};
+        use nalgebra::{Matrix4, Point3, Quaternion, Translation3, UnitQuaternion};
+
+        let skeleton = Skeleton::smpl_neutral();
+        let rest = skeleton.rest_joints();
+        let elbow = joint_index("left_elbow").unwrap();
+        let wrist = joint_index("left_wrist").unwrap();
+        let spine = joint_index("spine3").unwrap();
+        // A triangle along the left forearm, its corners skinned to one, two and three joints.
+        let mesh = TriMesh::new(
+            vec![
+                rest[elbow],
+                (rest[elbow] + rest[wrist]) * 0.5,
+                rest[wrist] + Vec3::y() * 0.02,
+            ],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        let weights = vec![
+            vec![(elbow, 1.0)],
+            vec![(elbow, 0.5), (wrist, 0.5)],
+            vec![(wrist, 0.6), (elbow, 0.3), (spine, 0.1)],
+        ];
+        let mut rng = SplitMix64::new(3);
+        let poses: Vec<Pose> = (0..3)
+            .map(|_| JointLimits::default().sample(&mut rng, 1.0))
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("skinned.glb");
+        let body = GlbSkinnedMesh {
+            name: "body",
+            rest: &mesh,
+            weights: &weights,
+            skeleton: &skeleton,
+            poses: &poses,
+            color: [200, 200, 200],
+        };
+        write_glb_animation(&path, &[], &[body], 10.0).unwrap();
+        let b = std::fs::read(&path).unwrap();
+        let (doc, bin) = parse(&b);
+        let skin = &doc["skins"][0];
+        let joints: Vec<usize> = skin["joints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|j| j.as_u64().unwrap() as usize)
+            .collect();
+        assert_eq!(joints.len(), JOINT_COUNT);
+        // The scene lists the mesh and the skeleton's root, not the other joints.
+        assert_eq!(doc["scenes"][0]["nodes"].as_array().unwrap().len(), 2);
+        let ibm = floats(&doc, bin, skin["inverseBindMatrices"].as_u64().unwrap());
+        let anim = &doc["animations"][0];
+        // Each joint's rotation track, by node.
+        let mut tracks = std::collections::HashMap::new();
+        for channel in anim["channels"].as_array().unwrap() {
+            assert_eq!(channel["target"]["path"], "rotation");
+            let sampler = &anim["samplers"][channel["sampler"].as_u64().unwrap() as usize];
+            let track = floats(&doc, bin, sampler["output"].as_u64().unwrap());
+            tracks.insert(channel["target"]["node"].as_u64().unwrap() as usize, track);
+        }
+        assert_eq!(tracks.len(), JOINT_COUNT);
+        // Parents of each node, from the children lists.
+        let mut parent = std::collections::HashMap::new();
+        for (k, node) in doc["nodes"].as_array().unwrap().iter().enumerate() {
+            for c in node["children"].as_array().into_iter().flatten() {
+                parent.insert(c.as_u64().unwrap() as usize, k);
+            }
+        }
+        let prim = &doc["meshes"][0]["primitives"][0];
+        let positions = floats(&doc, bin, prim["attributes"]["POSITION"].as_u64().unwrap());
+        let wts = floats(&doc, bin, prim["attributes"]["WEIGHTS_0"].as_u64().unwrap());
+        let jacc = &doc["accessors"][prim["attributes"]["JOINTS_0"].as_u64().unwrap() as usize];
+        let jview = &doc["bufferViews"][jacc["bufferView"].as_u64().unwrap() as usize];
+        let jstart = jview["byteOffset"].as_u64().unwrap() as usize;
+        let joint_of = |v: usize, s: usize| {
+            let at = jstart + (v * 4 + s) * 2;
+            u16::from_le_bytes([bin[at], bin[at + 1]]) as usize
+        };
+        for (f, pose) in poses.iter().enumerate() {
+            // A glTF viewer's skinning: global(joint) · inverseBind, blended by the weights.
+            let local = |node: usize| -> Matrix4<f64> {
+                let t = &doc["nodes"][node]["translation"];
+                let t = Translation3::new(
+                    t[0].as_f64().unwrap(),
+                    t[1].as_f64().unwrap(),
+                    t[2].as_f64().unwrap(),
+                );
+                let q = &tracks[&node][f * 4..f * 4 + 4];
+                let q = UnitQuaternion::from_quaternion(Quaternion::new(
+                    f64::from(q[3]),
+                    f64::from(q[0]),
+                    f64::from(q[1]),
+                    f64::from(q[2]),
+                ));
+                t.to_homogeneous() * q.to_homogeneous()
+            };
+            let global = |mut node: usize| {
+                let mut m = local(node);
+                while let Some(&p) = parent.get(&node) {
+                    m = local(p) * m;
+                    node = p;
+                }
+                m
+            };
+            let expected_transforms = skeleton.skinning_transforms(pose);
+            for v in 0..3 {
+                let p = Point3::new(
+                    f64::from(positions[v * 3]),
+                    f64::from(positions[v * 3 + 1]),
+                    f64::from(positions[v * 3 + 2]),
+                );
+                let mut got = Vec3::zeros();
+                for s in 0..MAX_INFLUENCES {
+                    let j = joint_of(v, s);
+                    let w = f64::from(wts[v * 4 + s]);
+                    let inv = Matrix4::from_iterator(
+                        ibm[j * 16..j * 16 + 16].iter().map(|&x| f64::from(x)),
+                    );
+                    got += (global(joints[j]) * inv).transform_point(&p).coords * w;
+                }
+                let expected = blend_point(&expected_transforms, &weights[v], &mesh.vertices[v]);
+                assert!(
+                    (got - expected).norm() < 1e-5,
+                    "frame {f} vertex {v}: {got} vs {expected}"
+                );
+            }
+        }
+        // Bad weights are refused, naming the vertex.
+        let bad = vec![vec![(elbow, 1.0)], vec![(elbow, 0.5)], vec![(99, 1.0)]];
+        let err = write_glb_animation(
+            dir.path().join("bad.glb"),
+            &[],
+            &[GlbSkinnedMesh {
+                weights: &bad,
+                ..body
+            }],
+            10.0,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("vertex 1"), "{err}");
+        assert!(!dir.path().join("bad.glb").exists());
+        // Alone, a skinned mesh sets the frame count; beside a morphed mesh it must match.
+        let two = GlbSkinnedMesh {
+            poses: &poses[..2],
+            ..body
+        };
+        write_glb_animation(dir.path().join("two.glb"), &[], &[two], 10.0).unwrap();
+        let frames = vec![mesh.clone(); 3];
+        let morph = GlbAnimatedMesh {
+            name: "garment",
+            frames: &frames[..2],
+            color: [0, 0, 0],
+        };
+        let err =
+            write_glb_animation(dir.path().join("bad2.glb"), &[morph], &[body], 10.0).unwrap_err();
+        assert!(err.to_string().contains("poses of skinned mesh"), "{err}");
+        assert!(!dir.path().join("bad2.glb").exists());
+    }
+
+    #[test]
     fn one_frame_is_a_still_scene() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("still.glb");
@@ -553,7 +904,7 @@ mod tests {
             frames: &frames,
             color: [1, 2, 3],
         };
-        write_glb_animation(&path, &[item], 30.0).unwrap();
+        write_glb_animation(&path, &[item], &[], 30.0).unwrap();
         let b = std::fs::read(&path).unwrap();
         let (doc, _) = parse(&b);
         assert!(doc.get("animations").is_none());
@@ -573,27 +924,27 @@ mod tests {
             }
         }
         for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let err = write_glb_animation(&path, &[item(&two)], fps).unwrap_err();
+            let err = write_glb_animation(&path, &[item(&two)], &[], fps).unwrap_err();
             assert!(err.to_string().contains("frame rate"), "{err}");
         }
         assert!(matches!(
-            write_glb_animation(&path, &[], 30.0),
+            write_glb_animation(&path, &[], &[], 30.0),
             Err(Error::InvalidArgument(_))
         ));
         assert!(matches!(
-            write_glb_animation(&path, &[item(&[])], 30.0),
+            write_glb_animation(&path, &[item(&[])], &[], 30.0),
             Err(Error::InvalidArgument(_))
         ));
         let three = [tri(), tri(), tri()];
-        let err = write_glb_animation(&path, &[item(&two), item(&three)], 30.0).unwrap_err();
+        let err = write_glb_animation(&path, &[item(&two), item(&three)], &[], 30.0).unwrap_err();
         assert!(matches!(err, Error::Mismatch { .. }), "{err}");
         let mut flipped = tri();
         flipped.faces[0] = [0, 2, 1];
-        let err = write_glb_animation(&path, &[item(&[tri(), flipped])], 30.0).unwrap_err();
+        let err = write_glb_animation(&path, &[item(&[tri(), flipped])], &[], 30.0).unwrap_err();
         assert!(err.to_string().contains("in another order"), "{err}");
         let mut more = tri();
         more.vertices.push(Vec3::new(1.0, 1.0, 0.0));
-        let err = write_glb_animation(&path, &[item(&[tri(), more])], 30.0).unwrap_err();
+        let err = write_glb_animation(&path, &[item(&[tri(), more])], &[], 30.0).unwrap_err();
         assert!(err.to_string().contains("frame 1"), "{err}");
         assert!(!path.exists());
     }

@@ -38,7 +38,7 @@ pub use capsule_body::{
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
-pub use gltf::{GlbAnimatedMesh, GlbMesh, write_glb, write_glb_animation};
+pub use gltf::{GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation};
 pub use io::{OutputLock, read_obj, write_atomic, write_bytes_atomic, write_obj, write_ply};
 pub use laplacian::{
     CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,

@@ -5,15 +5,17 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use garmatnet_core::gltf::{GlbAnimatedMesh, GlbMesh, write_glb, write_glb_animation};
+use garmatnet_core::gltf::{
+    GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation,
+};
 use garmatnet_core::read_poses;
 use garmatnet_core::render::{
     BODY_COLOR, Camera, Color, GARMENT_COLOR, RenderItem, RenderSettings, Shading, heat_colors,
     render, save_png, side_by_side,
 };
 use garmatnet_core::{
-    CapsuleBody, Error as CoreError, Garment, MATERIAL_DIM, Material, Pose, Real, TriMesh, Vec3,
-    write_obj, write_ply,
+    CapsuleBody, Error as CoreError, Garment, MATERIAL_DIM, Material, Pose, Real, SkinnedBody,
+    TriMesh, Vec3, write_obj, write_ply,
 };
 use garmatnet_sim::{MotionGenerator, SequenceSettings, drape_sequence};
 use image::RgbImage;
@@ -332,8 +334,10 @@ impl DrapeView<'_> {
 pub struct DrapeSequence<'a> {
     /// The frame numbers (e.g. of the pose file), one per mesh, in playing order.
     pub frames: &'a [usize],
-    /// The posed body mesh at each frame (metres).
-    pub bodies: &'a [TriMesh],
+    /// The body the garment is worn by.
+    pub body: &'a CapsuleBody,
+    /// The pose at each frame.
+    pub poses: &'a [Pose],
     /// The garment mesh at each frame (metres).
     pub garments: &'a [TriMesh],
     /// Frames per second of the animation.
@@ -342,8 +346,9 @@ pub struct DrapeSequence<'a> {
 
 impl DrapeSequence<'_> {
     /// Writes the sequence to `path` by its extension ([`OutputFormat`]), atomically: GLB
-    /// as one animated file (garment and body, [`write_glb_animation`]), OBJ, PLY and PNG as
-    /// one file a frame, numbered ([`numbered_path`]). Returns the paths written.
+    /// as one animated file ([`write_glb_animation`]: the garment's frames as morph
+    /// targets, the body once, skinned to its skeleton and posed by the animation), OBJ, PLY
+    /// and PNG as one file a frame, numbered ([`numbered_path`]). Returns the paths written.
     ///
     /// # Errors
     /// [`CoreError::InvalidArgument`] for an unknown extension or no frames;
@@ -356,7 +361,7 @@ impl DrapeSequence<'_> {
             return Err(CoreError::InvalidArgument("a drape sequence needs a frame".into()).into());
         }
         for (what, len) in [
-            ("bodies", self.bodies.len()),
+            ("poses", self.poses.len()),
             ("garments", self.garments.len()),
         ] {
             if len != n {
@@ -371,28 +376,29 @@ impl DrapeSequence<'_> {
         if format == OutputFormat::Glb {
             write_glb_animation(
                 path,
-                &[
-                    GlbAnimatedMesh {
-                        name: "garment",
-                        frames: self.garments,
-                        color: GARMENT_COLOR,
-                    },
-                    GlbAnimatedMesh {
-                        name: "body",
-                        frames: self.bodies,
-                        color: BODY_COLOR,
-                    },
-                ],
+                &[GlbAnimatedMesh {
+                    name: "garment",
+                    frames: self.garments,
+                    color: GARMENT_COLOR,
+                }],
+                &[GlbSkinnedMesh {
+                    name: "body",
+                    rest: self.body.rest_mesh(),
+                    weights: self.body.rest_mesh_weights(),
+                    skeleton: self.body.skeleton(),
+                    poses: self.poses,
+                    color: BODY_COLOR,
+                }],
                 self.fps,
             )?;
             return Ok(vec![path.to_owned()]);
         }
         let last = self.frames.iter().copied().max().unwrap_or(0);
         let mut written = Vec::with_capacity(n);
-        for ((&frame, body), garment) in self.frames.iter().zip(self.bodies).zip(self.garments) {
+        for ((&frame, pose), garment) in self.frames.iter().zip(self.poses).zip(self.garments) {
             let out = numbered_path(path, frame, last);
             DrapeView {
-                body,
+                body: &self.body.pose(pose).mesh(),
                 garment,
                 garment_colors: None,
             }
@@ -589,14 +595,12 @@ mod tests {
         let shirt = Garment::tshirt(Resolution::Coarse, &body)?;
         let motion = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
         let frames = [3, 4];
-        let bodies: Vec<TriMesh> = frames
-            .iter()
-            .map(|&f| body.pose(&motion[f]).mesh())
-            .collect();
+        let poses = [motion[3].clone(), motion[4].clone()];
         let garments = vec![shirt.rest.clone(), shirt.rest.clone()];
         let sequence = DrapeSequence {
             frames: &frames,
-            bodies: &bodies,
+            body: &body,
+            poses: &poses,
             garments: &garments,
             fps: 30.0,
         };
@@ -606,10 +610,12 @@ mod tests {
         let bytes = std::fs::read(&glb)?;
         let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
         let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
+        // The garment's morph weights and the body's 24 joint rotations.
         assert_eq!(
             doc["animations"][0]["channels"].as_array().map(Vec::len),
-            Some(2)
+            Some(1 + garmatnet_core::JOINT_COUNT)
         );
+        assert_eq!(doc["skins"].as_array().map(Vec::len), Some(1));
         let objs = sequence.write(&dir.path().join("a.obj"))?;
         assert_eq!(
             objs,
