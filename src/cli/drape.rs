@@ -98,7 +98,11 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         }
         None => None,
     };
-    let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
+    // A sequence brings its own poses; only a single prediction reads `--pose`/`--frame`.
+    let pose = match sequence {
+        Some(_) => Pose::zero(),
+        None => resolve_pose(args.pose.as_deref(), args.frame)?,
+    };
     let device = select_device(&args.device)?;
     let model_path = args.model.clone().unwrap_or_else(default_model_path);
     let mut predictor = Predictor::from_file(&model_path, &device)?;

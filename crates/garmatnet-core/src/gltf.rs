@@ -1,5 +1,7 @@
 //! glTF 2.0 binary (`.glb`) export: meshes with normals, a base colour each and optional
-//! per-vertex colours, viewable in Blender, three.js viewers or any browser glTF viewer.
+//! per-vertex colours, viewable in Blender, three.js viewers or any browser glTF viewer; and
+//! animations of them ([`write_glb_animation`]): a mesh given frame by frame as morph targets,
+//! a mesh skinned to the SMPL skeleton once, posed by its joints' rotations.
 //!
 //! The format is small and fully specified (Khronos glTF 2.0 §4.4): a 12-byte header, a JSON
 //! chunk describing buffers/accessors/meshes/materials, and one binary chunk. Writing it takes

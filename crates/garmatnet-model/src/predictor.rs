@@ -337,8 +337,9 @@ impl Predictor {
     /// Predicts the garment at each of `poses` (e.g. the frames of a motion) in one
     /// `material`: the nets run in batches of [`SEQUENCE_BATCH`] poses, and each mesh is
     /// pushed out of its posed body as [`Predictor::predict`] pushes one. The same meshes as
-    /// one `predict` call per pose (to float rounding), several times faster for a sequence
-    /// (`garmatnet drape --frames` uses it).
+    /// one `predict` call per pose (to float rounding), with the nets' share of the time cut
+    /// by batching, so the push-out is most of what a frame costs (`garmatnet drape
+    /// --frames` uses it; figures in README, "The command line").
     ///
     /// # Errors
     /// As [`Predictor::predict`], for the material or the first bad pose.
