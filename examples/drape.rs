@@ -203,12 +203,28 @@ fn main() -> Result<()> {
             fps: 24.0,
         }
         .write(&path)?;
+        // Six evenly spaced frames side by side, for a glance without a glTF viewer.
+        let shown: Vec<usize> = (0..6).map(|k| k * (frames.len() - 1) / 5).collect();
+        let mut strip = Vec::with_capacity(shown.len());
+        for &k in &shown {
+            let body = body_model.pose(&motion[k]).mesh();
+            let view = DrapeView {
+                body: &body,
+                garment: &garments[k],
+                garment_colors: None,
+            };
+            strip.push(view.render(&settings)?);
+        }
+        let strip_path = args.out.join(format!("motion_{}.png", slug(name)));
+        save_png(&strip_path, &side_by_side(&strip, settings.background))?;
         println!(
             "{name}: frames 0..{} of the motion predicted in {ms:.1} ms ({:.2} ms a frame), \
-             animated in {}",
+             animated in {} (frames {:?} side by side in {})",
             args.motion_frames,
             ms / frames.len() as f64,
-            path.display()
+            path.display(),
+            shown.iter().map(|&k| frames[k]).collect::<Vec<_>>(),
+            strip_path.display()
         );
     }
     println!(
