@@ -474,7 +474,7 @@ impl GlbBuilder {
     /// The animation that shows frame `f` at time `f / fps`, interpolating linearly
     /// between: morph target `f − 1` at full weight (frame 0: the meshes as stored), and each
     /// joint at its rotation of frame `f`.
-    fn animation(&mut self, fps: f64, frame_count: usize) -> serde_json::Value {
+    fn animation(&mut self, fps: f64, frame_count: usize) -> Result<serde_json::Value> {
         let times: Vec<f32> = (0..frame_count).map(|f| (f as f64 / fps) as f32).collect();
         let input = self.push_floats(&times, "SCALAR", None, true);
         let mut samplers = Vec::new();
@@ -488,17 +488,42 @@ impl GlbBuilder {
         }
         let morphed = self.morphed.clone();
         for (node, count) in morphed {
-            let mut weights = vec![0.0_f32; (count + 1) * count];
-            for f in 1..=count {
-                weights[f * count + (f - 1)] = 1.0;
+            // Frame f's weights are target f − 1 at 1, every other at 0: a (count + 1) ×
+            // count table, stored sparse (zeros but for one entry a frame), so a long
+            // sequence costs 8 bytes a frame here instead of 4 × count.
+            if (count + 1)
+                .checked_mul(count)
+                .is_none_or(|n| n > u32::MAX as usize)
+            {
+                return Err(Error::InvalidArgument(format!(
+                    "an animation of {} frames is past what one glTF file can index: write \
+                     fewer frames per file",
+                    count + 1
+                )));
             }
-            let output = self.push_floats(&weights, "SCALAR", None, false);
+            // Below u32::MAX, checked above.
+            let indices: Vec<u8> = (1..=count)
+                .flat_map(|f| ((f * count + (f - 1)) as u32).to_le_bytes())
+                .collect();
+            let index_view = self.push_view(&indices, None);
+            let value_view = self.push_view(&f32_bytes(&vec![1.0; count]), None);
+            self.accessors.push(json!({
+                "componentType": FLOAT,
+                "count": (count + 1) * count,
+                "type": "SCALAR",
+                "sparse": {
+                    "count": count,
+                    "indices": {"bufferView": index_view, "componentType": UNSIGNED_INT},
+                    "values": {"bufferView": value_view},
+                },
+            }));
+            let output = self.accessors.len() - 1;
             samplers.push(json!({"input": input, "output": output, "interpolation": "LINEAR"}));
             channels.push(
                 json!({"sampler": samplers.len() - 1, "target": {"node": node, "path": "weights"}}),
             );
         }
-        json!({"name": "drape", "samplers": samplers, "channels": channels})
+        Ok(json!({"name": "drape", "samplers": samplers, "channels": channels}))
     }
 
     /// Finishes the document (with the animation at `fps` frames a second, if any) and writes
@@ -511,7 +536,8 @@ impl GlbBuilder {
         };
         let animation = animation
             .filter(|_| frame_count > 1)
-            .map(|fps| self.animation(fps, frame_count));
+            .map(|fps| self.animation(fps, frame_count))
+            .transpose()?;
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
@@ -644,16 +670,43 @@ mod tests {
         (doc, &b[20 + json_len + 8..])
     }
 
-    /// The floats of accessor `acc`.
-    fn floats(doc: &serde_json::Value, bin: &[u8], acc: u64) -> Vec<f32> {
-        let acc = &doc["accessors"][acc as usize];
-        let view = &doc["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+    /// The 4-byte little-endian words of buffer view `view`.
+    fn words(doc: &serde_json::Value, bin: &[u8], view: &serde_json::Value) -> Vec<[u8; 4]> {
+        let view = &doc["bufferViews"][view.as_u64().unwrap() as usize];
         let start = view["byteOffset"].as_u64().unwrap() as usize;
         let len = view["byteLength"].as_u64().unwrap() as usize;
         bin[start..start + len]
             .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .map(|c| c.try_into().unwrap())
             .collect()
+    }
+
+    /// The floats of accessor `acc`, sparse ones expanded as glTF readers expand them.
+    fn floats(doc: &serde_json::Value, bin: &[u8], acc: u64) -> Vec<f32> {
+        let acc = &doc["accessors"][acc as usize];
+        let width = match acc["type"].as_str().unwrap() {
+            "VEC3" => 3,
+            "VEC4" => 4,
+            "MAT4" => 16,
+            _ => 1,
+        };
+        let mut values = match acc.get("bufferView") {
+            Some(view) => words(doc, bin, view)
+                .into_iter()
+                .map(f32::from_le_bytes)
+                .collect(),
+            None => vec![0.0; acc["count"].as_u64().unwrap() as usize * width],
+        };
+        if let Some(sparse) = acc.get("sparse") {
+            assert_eq!(sparse["indices"]["componentType"], UNSIGNED_INT);
+            let indices = words(doc, bin, &sparse["indices"]["bufferView"]);
+            let replacements = words(doc, bin, &sparse["values"]["bufferView"]);
+            assert_eq!(indices.len(), sparse["count"].as_u64().unwrap() as usize);
+            for (i, v) in indices.iter().zip(replacements) {
+                values[u32::from_le_bytes(*i) as usize] = f32::from_le_bytes(v);
+            }
+        }
+        values
     }
 
     #[test]
