@@ -776,6 +776,10 @@ mod tests {
         let times = floats(&doc, bin, sampler["input"].as_u64().unwrap());
         assert_eq!(times, vec![0.0, 0.04, 0.08, 0.12]);
         // At time f / fps exactly target f − 1 is on: weights[f][t] = (t == f − 1).
+        // Stored sparse: one stored entry a frame after the first, not the whole table.
+        let output = &doc["accessors"][sampler["output"].as_u64().unwrap() as usize];
+        assert!(output.get("bufferView").is_none());
+        assert_eq!(output["sparse"]["count"], 3);
         let weights = floats(&doc, bin, sampler["output"].as_u64().unwrap());
         assert_eq!(weights.len(), 4 * 3);
         for f in 0..4 {
