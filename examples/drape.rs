@@ -200,6 +200,7 @@ fn main() -> Result<()> {
             body: &body_model,
             poses: &motion,
             garments: &garments,
+            simulated: None,
             fps: 24.0,
         }
         .write(&path)?;

@@ -12,7 +12,7 @@ use garmatnet::model::{
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
     DrapeSequence, DrapeView, OutputFormat, comparison_image, resolve_frames, resolve_material,
-    resolve_pose, simulate_drape, vertex_errors_mm,
+    resolve_pose, simulate_drape, simulate_sequence, vertex_errors_mm,
 };
 use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
 
@@ -40,8 +40,10 @@ pub struct DrapeArgs {
     /// Predict a sequence instead of one pose: `START..END` (END excluded), `START..=END`,
     /// `START..` or `all` of the pose file's poses (`--pose FILE`), or of the built-in
     /// motion without `--pose`. A .glb output becomes one animation (garment and body);
-    /// .obj, .ply and .png outputs one file a frame, numbered (`drape.0012.obj`).
-    #[arg(long, conflicts_with = "compare")]
+    /// .obj, .ply and .png outputs one file a frame, numbered (`drape.0012.obj`). With
+    /// `--compare`, the simulator drapes the same frames (seconds a frame) and its garment
+    /// joins the animation.
+    #[arg(long)]
     pub frames: Option<String>,
     /// Frames per second of a `--frames` animation.
     #[arg(long, default_value_t = 30.0, requires = "frames")]
@@ -57,7 +59,8 @@ pub struct DrapeArgs {
     #[arg(long, required = true)]
     pub out: Vec<PathBuf>,
     /// Also drape with the simulator, print the error (mm) and speed-up, and write
-    /// `<out>_compare.png` next to each PNG output (prediction | simulation | error map).
+    /// `<out>_compare.png` next to each PNG output (prediction | simulation | error map);
+    /// with `--frames`, for every frame.
     #[arg(long)]
     pub compare: bool,
     /// Keep vertices the network put inside the body where they are.
@@ -247,11 +250,19 @@ fn write_sequence(
     );
     let body = predictor.body().context("the predictor has no body")?;
     let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
+    let simulated = if args.compare {
+        Some(compare_sequence(
+            predictor, body, &frames, &poses, material, &garments, total_ms,
+        )?)
+    } else {
+        None
+    };
     let view = DrapeSequence {
         frames: &frames,
         body,
         poses: &poses,
         garments: &garments,
+        simulated: simulated.as_deref(),
         fps: args.fps,
     };
     for out in &args.out {
@@ -274,4 +285,70 @@ fn write_sequence(
         }
     }
     Ok(())
+}
+
+/// Drapes `poses` with the simulator as a dataset walks them, prints how far the predicted
+/// `garments` lie from its drapes and how much faster they came (`predict_ms` for all of
+/// them), and returns the simulated garments.
+fn compare_sequence(
+    predictor: &Predictor,
+    body: &CapsuleBody,
+    frames: &[usize],
+    poses: &[Pose],
+    material: &Material,
+    garments: &[TriMesh],
+    predict_ms: f64,
+) -> Result<Vec<TriMesh>> {
+    let template = Garment::tshirt(predictor.model().meta.template.resolution, body)?;
+    // From the rest drape to the first frame, then frame to frame, as datasets are made: the
+    // drapes depend on that path (README, "The ground truth's noise floor").
+    println!(
+        "simulating {} frames (rest pose, then each frame in turn; seconds a frame) ...",
+        frames.len()
+    );
+    let drapes = simulate_sequence(
+        &template,
+        body,
+        poses,
+        material,
+        &SequenceSettings::default(),
+    )?;
+    let mut simulated = Vec::with_capacity(drapes.len());
+    let (mut sum, mut worst, mut sim_ms, mut unsettled) = (0.0, (0.0, 0), 0.0, 0);
+    for ((drape, garment), &frame) in drapes.into_iter().zip(garments).zip(frames) {
+        let errors = vertex_errors_mm(&garment.vertices, &drape.vertices)?;
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        println!(
+            "  frame {frame}: simulated in {:.0} ms{}, prediction error mean {mean:.2} mm",
+            drape.wall_ms,
+            if drape.converged {
+                ""
+            } else {
+                " (not converged)"
+            }
+        );
+        sum += mean;
+        if mean > worst.0 {
+            worst = (mean, frame);
+        }
+        sim_ms += drape.wall_ms;
+        unsettled += usize::from(!drape.converged);
+        simulated.push(TriMesh::new(drape.vertices, garment.faces.clone())?);
+    }
+    let n = frames.len() as f64;
+    println!(
+        "simulator: {:.0} ms a frame{}; prediction error mean {:.2} mm over the frames \
+         (worst frame {}: {:.2} mm); speed-up {:.0}x",
+        sim_ms / n,
+        if unsettled > 0 {
+            format!(" ({unsettled} not converged)")
+        } else {
+            String::new()
+        },
+        sum / n,
+        worst.1,
+        worst.0,
+        sim_ms / predict_ms
+    );
+    Ok(simulated)
 }

@@ -340,15 +340,25 @@ pub struct DrapeSequence<'a> {
     pub poses: &'a [Pose],
     /// The garment mesh at each frame (metres).
     pub garments: &'a [TriMesh],
+    /// The simulator's garment at each frame, to show beside the prediction
+    /// ([`simulate_sequence`]), if any.
+    pub simulated: Option<&'a [TriMesh]>,
     /// Frames per second of the animation.
     pub fps: f64,
 }
 
+/// The colour of a simulated garment shown beside a predicted one.
+pub const SIMULATED_COLOR: Color = [200, 120, 60];
+
 impl DrapeSequence<'_> {
     /// Writes the sequence to `path` by its extension ([`OutputFormat`]), atomically: GLB
     /// as one animated file ([`write_glb_animation`]: the garment's frames as morph
-    /// targets, the body once, skinned to its skeleton and posed by the animation), OBJ, PLY
-    /// and PNG as one file a frame, numbered ([`numbered_path`]). Returns the paths written.
+    /// targets, the simulated garment's too when there is one (`garment_simulated`, in
+    /// [`SIMULATED_COLOR`], on the same body), the body once, skinned to its skeleton and
+    /// posed by the animation), OBJ, PLY and PNG as one file a frame, numbered
+    /// ([`numbered_path`]); with a simulated garment, each PNG frame also gets a comparison
+    /// image (`<stem>_compare.NNNN.png`: prediction | simulation | error, red = 20 mm).
+    /// Returns the paths written.
     ///
     /// # Errors
     /// [`CoreError::InvalidArgument`] for an unknown extension or no frames;
@@ -363,6 +373,10 @@ impl DrapeSequence<'_> {
         for (what, len) in [
             ("poses", self.poses.len()),
             ("garments", self.garments.len()),
+            (
+                "simulated garments",
+                self.simulated.map_or(n, <[TriMesh]>::len),
+            ),
         ] {
             if len != n {
                 return Err(CoreError::Mismatch {
@@ -376,11 +390,21 @@ impl DrapeSequence<'_> {
         if format == OutputFormat::Glb {
             write_glb_animation(
                 path,
-                &[GlbAnimatedMesh {
-                    name: "garment",
-                    frames: self.garments,
-                    color: GARMENT_COLOR,
-                }],
+                &[
+                    Some(GlbAnimatedMesh {
+                        name: "garment",
+                        frames: self.garments,
+                        color: GARMENT_COLOR,
+                    }),
+                    self.simulated.map(|frames| GlbAnimatedMesh {
+                        name: "garment_simulated",
+                        frames,
+                        color: SIMULATED_COLOR,
+                    }),
+                ]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>(),
                 &[GlbSkinnedMesh {
                     name: "body",
                     rest: self.body.rest_mesh(),
@@ -395,15 +419,39 @@ impl DrapeSequence<'_> {
         }
         let last = self.frames.iter().copied().max().unwrap_or(0);
         let mut written = Vec::with_capacity(n);
-        for ((&frame, pose), garment) in self.frames.iter().zip(self.poses).zip(self.garments) {
+        for (k, ((&frame, pose), garment)) in self
+            .frames
+            .iter()
+            .zip(self.poses)
+            .zip(self.garments)
+            .enumerate()
+        {
             let out = numbered_path(path, frame, last);
+            let body = self.body.pose(pose).mesh();
             DrapeView {
-                body: &self.body.pose(pose).mesh(),
+                body: &body,
                 garment,
                 garment_colors: None,
             }
             .write(&out)?;
             written.push(out);
+            if let (Some(simulated), OutputFormat::Png) = (self.simulated, format) {
+                let truth = &simulated[k];
+                let errors = vertex_errors_mm(&garment.vertices, &truth.vertices)?;
+                let stem = path
+                    .file_stem()
+                    .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
+                let compare = numbered_path(
+                    &path.with_file_name(format!("{stem}_compare.png")),
+                    frame,
+                    last,
+                );
+                save_png(
+                    &compare,
+                    &comparison_image(&body, garment, truth, &errors, 20.0)?,
+                )?;
+                written.push(compare);
+            }
         }
         Ok(written)
     }
@@ -453,6 +501,40 @@ pub fn simulate_drape(
         wall_ms: started.elapsed().as_secs_f64() * 1e3,
         converged: stats.last().is_some_and(|s| s.converged),
     })
+}
+
+/// The simulator's drapes along `poses`, in order, as a dataset walks them
+/// ([`drape_sequence`]: the rest drape, then each pose reached through intermediate poses and
+/// converged): the ground truth to hold a predicted sequence against. Each drape's `wall_ms`
+/// is the time since the previous one (the first includes the rest drape).
+///
+/// # Errors
+/// The simulator's errors ([`Error::Sim`]).
+pub fn simulate_sequence(
+    garment: &Garment,
+    body: &CapsuleBody,
+    poses: &[Pose],
+    material: &Material,
+    settings: &SequenceSettings,
+) -> Result<Vec<SimulatedDrape>> {
+    let mut drapes = Vec::with_capacity(poses.len());
+    let mut last = Instant::now();
+    let stats = drape_sequence(garment, body, material, poses, settings, None, |_, x, _| {
+        let now = Instant::now();
+        drapes.push(SimulatedDrape {
+            vertices: x.to_vec(),
+            wall_ms: (now - last).as_secs_f64() * 1e3,
+            converged: false,
+        });
+        last = now;
+        Ok(())
+    })
+    .map_err(Error::Sim)?;
+    // `stats` holds the rest drape first, then one per pose.
+    for (drape, stat) in drapes.iter_mut().zip(stats.iter().skip(1)) {
+        drape.converged = stat.converged;
+    }
+    Ok(drapes)
 }
 
 /// Per-vertex Euclidean distance between two garments of one template (millimetres).
@@ -579,6 +661,24 @@ mod tests {
     }
 
     #[test]
+    fn a_simulated_sequence_walks_as_a_single_drape_does() -> anyhow::Result<()> {
+        let body = CapsuleBody::smpl_neutral();
+        let shirt = Garment::tshirt(Resolution::Coarse, &body)?;
+        let motion = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
+        let silk = Material::preset("Silk Chiffon")?;
+        let settings = SequenceSettings::default();
+        let drapes = simulate_sequence(&shirt, &body, &motion[2..4], &silk, &settings)?;
+        assert_eq!(drapes.len(), 2);
+        // Its first frame is the single drape of that pose: the same walk from rest.
+        let single = simulate_drape(&shirt, &body, &motion[2], &silk, &settings)?;
+        assert_eq!(drapes[0].vertices, single.vertices);
+        assert_eq!(drapes[0].converged, single.converged);
+        assert_ne!(drapes[1].vertices, drapes[0].vertices);
+        assert!(drapes.iter().all(|d| d.wall_ms > 0.0));
+        Ok(())
+    }
+
+    #[test]
     fn numbered_paths_sort_in_frame_order() {
         let p = Path::new("out/drape.obj");
         assert_eq!(numbered_path(p, 7, 239), Path::new("out/drape.0007.obj"));
@@ -602,6 +702,7 @@ mod tests {
             body: &body,
             poses: &poses,
             garments: &garments,
+            simulated: None,
             fps: 30.0,
         };
         let dir = tempfile::tempdir()?;
