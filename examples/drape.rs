@@ -21,7 +21,7 @@ use garmatnet::train::{
     DrapeSequence, DrapeView, comparison_image, resolve_frames, resolve_material, resolve_pose,
     simulate_drape, slug, vertex_errors_mm,
 };
-use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
+use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// The fabrics shown when none is named: light and fluid, a heavy twill, a stiff interlining.
 const DEFAULT_FABRICS: [&str; 3] = ["Silk Chiffon", "Denim Heavy", "Trim Fusible Rigid"];
@@ -135,7 +135,7 @@ fn main() -> Result<()> {
             let started = Instant::now();
             let mesh = predictor.predict(pose, material, args.detail)?;
             let ms = started.elapsed().as_secs_f64() * 1e3;
-            let garment = TriMesh::new(mesh.vertices, mesh.faces)?;
+            let garment = mesh.into_tri_mesh()?;
             let view = DrapeView {
                 body: &body,
                 garment: &garment,
@@ -192,7 +192,7 @@ fn main() -> Result<()> {
         let ms = started.elapsed().as_secs_f64() * 1e3;
         let garments = predicted
             .into_iter()
-            .map(|m| TriMesh::new(m.vertices, m.faces))
+            .map(GarmentMesh::into_tri_mesh)
             .collect::<Result<Vec<_>, _>>()?;
         let path = args.out.join(format!("motion_{}.glb", slug(name)));
         DrapeSequence {

@@ -15,7 +15,7 @@
 //! let predictor = Predictor::for_garment(model, &shirt, body, &device)?;
 //! let pose = Pose::from_slice(&[0.0; 72])?; // SMPL axis-angle, root first
 //! let mesh = predictor.predict(&pose, &Material::preset("denim heavy")?, Detail::Full)?;
-//! garmatnet::core::write_obj("shirt.obj", &garmatnet::TriMesh::new(mesh.vertices, mesh.faces)?)?;
+//! garmatnet::core::write_obj("shirt.obj", &mesh.into_tri_mesh()?)?;
 //! # Ok(())
 //! # }
 //! ```

@@ -205,6 +205,13 @@ fn drape_writes_every_format_and_compares_with_the_simulator() -> anyhow::Result
     Ok(())
 }
 
+/// The JSON document of a `.glb` file (its first chunk).
+fn glb_document(path: &std::path::Path) -> anyhow::Result<serde_json::Value> {
+    let bytes = std::fs::read(path)?;
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
+    Ok(serde_json::from_slice(&bytes[20..20 + json_len])?)
+}
+
 #[test]
 fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
@@ -226,9 +233,7 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(stdout.contains("3 frames"), "{stdout}");
-    let bytes = std::fs::read(&glb)?;
-    let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
-    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
+    let doc = glb_document(&glb)?;
     // The garment: two morph targets after frame 10. The body: skinned, its 24 joints
     // rotated by the animation.
     assert_eq!(doc["meshes"][0]["name"], "garment");
@@ -275,9 +280,7 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     assert!(output.status.success(), "{stdout}");
     assert!(stdout.contains("frame 4: simulated in"), "{stdout}");
     assert!(stdout.contains("prediction error mean"), "{stdout}");
-    let bytes = std::fs::read(&compared)?;
-    let json_len = u32::from_le_bytes(bytes[12..16].try_into()?) as usize;
-    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len])?;
+    let doc = glb_document(&compared)?;
     assert_eq!(doc["meshes"][1]["name"], "garment_simulated");
     for f in [
         "c.0003.png",

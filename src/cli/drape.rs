@@ -14,7 +14,7 @@ use garmatnet::train::{
     DrapeSequence, DrapeView, OutputFormat, comparison_image, resolve_frames, resolve_material,
     resolve_pose, simulate_drape, simulate_sequence, vertex_errors_mm,
 };
-use garmatnet::{CapsuleBody, Garment, Material, Pose, TriMesh};
+use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// Predict the T-shirt for one pose and fabric and write it.
 #[derive(Debug, Args)]
@@ -157,7 +157,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         args.detail,
         model_path.display()
     );
-    let garment = TriMesh::new(mesh.vertices, mesh.faces)?;
+    let garment = mesh.into_tri_mesh()?;
     let body = predictor
         .body()
         .context("the predictor has no body")?
@@ -237,7 +237,7 @@ fn write_sequence(
     let total_ms = started.elapsed().as_secs_f64() * 1e3;
     let garments = predicted
         .into_iter()
-        .map(|mesh| TriMesh::new(mesh.vertices, mesh.faces))
+        .map(GarmentMesh::into_tri_mesh)
         .collect::<Result<Vec<_>, _>>()?;
     let (first, last) = (sequence[0].0, sequence[sequence.len() - 1].0);
     println!(

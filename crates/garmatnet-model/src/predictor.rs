@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use burn::prelude::*;
 use garmatnet_core::{
     BodyAnchor, CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, Material, POSE_DIM,
-    Pose, Real, SignedDistance, Skeleton, SkinnedBody, Vec3,
+    Pose, Real, SignedDistance, Skeleton, SkinnedBody, TriMesh, Vec3,
 };
 
 use crate::error::{Error, Result};
@@ -65,6 +65,17 @@ pub struct GarmentMesh {
     pub vertices: Vec<Vec3>,
     /// Triangles, counter-clockwise seen from outside (the template's).
     pub faces: Vec<[u32; 3]>,
+}
+
+impl GarmentMesh {
+    /// The garment as a checked [`TriMesh`], for writing, rendering and measuring.
+    ///
+    /// # Errors
+    /// As [`TriMesh::new`] (which a prediction always passes: finite vertices, the
+    /// template's faces).
+    pub fn into_tri_mesh(self) -> Result<TriMesh> {
+        Ok(TriMesh::new(self.vertices, self.faces)?)
+    }
 }
 
 /// How many poses [`Predictor::predict_sequence`] runs through the nets at once: enough to
