@@ -114,7 +114,8 @@ pub fn write_glb(path: impl AsRef<Path>, meshes: &[GlbMesh<'_>]) -> Result<()> {
 ///
 /// # Errors
 /// [`Error::InvalidArgument`] for no mesh at all, a mesh without frames, an empty mesh, a
-/// frame rate that is not a positive finite number, skinning weights that are not 1 to 4
+/// frame rate that is not a positive finite number (or so extreme that the frames' key times
+/// overflow or coincide in 32-bit floats), skinning weights that are not 1 to 4
 /// finite, non-negative pairs on valid joints summing to one, or a file past glTF binary's
 /// 4 GiB; [`Error::Mismatch`] when a mesh's frames differ in topology, the weights do not
 /// match the vertices, or the meshes differ in frame count; [`Error::Io`] when the file
@@ -476,6 +477,15 @@ impl GlbBuilder {
     /// joint at its rotation of frame `f`.
     fn animation(&mut self, fps: f64, frame_count: usize) -> Result<serde_json::Value> {
         let times: Vec<f32> = (0..frame_count).map(|f| (f as f64 / fps) as f32).collect();
+        // glTF needs finite, strictly increasing key times, which f32 cannot keep for every
+        // frame rate and length (1e-30 frames a second overflows, 1e30 rounds them together).
+        if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(Error::InvalidArgument(format!(
+                "at {fps} frames a second, the key times of {frame_count} frames do not stay \
+                 finite and apart in glTF's 32-bit floats: use a frame rate such as 24, 30 or \
+                 60"
+            )));
+        }
         let input = self.push_floats(&times, "SCALAR", None, true);
         let mut samplers = Vec::new();
         let mut channels = Vec::new();
@@ -985,6 +995,10 @@ mod tests {
         for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let err = write_glb_animation(&path, &[item(&two)], &[], fps).unwrap_err();
             assert!(err.to_string().contains("frame rate"), "{err}");
+        }
+        for fps in [1e-300, 1e300] {
+            let err = write_glb_animation(&path, &[item(&two)], &[], fps).unwrap_err();
+            assert!(err.to_string().contains("frame rate such as"), "{err}");
         }
         assert!(matches!(
             write_glb_animation(&path, &[], &[], 30.0),
