@@ -126,21 +126,21 @@ pub fn write_glb_animation(
     skinned: &[GlbSkinnedMesh<'_>],
     fps: f64,
 ) -> Result<()> {
-    if meshes.is_empty() && skinned.is_empty() {
+    // The first mesh sets the frame count every other must have.
+    let Some((frame_count, first_name)) = meshes
+        .first()
+        .map(|m| (m.frames.len(), m.name))
+        .or_else(|| skinned.first().map(|s| (s.poses.len(), s.name)))
+    else {
         return Err(Error::InvalidArgument(
             "write_glb_animation needs at least one mesh".into(),
         ));
-    }
+    };
     if !(fps.is_finite() && fps > 0.0) {
         return Err(Error::InvalidArgument(format!(
             "the frame rate must be a positive number of frames a second, got {fps}"
         )));
     }
-    let (frame_count, first_name) = match (meshes.first(), skinned.first()) {
-        (Some(m), _) => (m.frames.len(), m.name),
-        (None, Some(s)) => (s.poses.len(), s.name),
-        (None, None) => unreachable!("checked above"),
-    };
     let mut glb = GlbBuilder::default();
     for item in meshes {
         let Some((first, rest)) = item.frames.split_first() else {
@@ -244,7 +244,7 @@ impl GlbBuilder {
         self.buffer_views.len() - 1
     }
 
-    /// Appends `values` as an accessor of `kind` (`VEC3` or `SCALAR`) floats, with their
+    /// Appends `values` as an accessor of `kind` (`SCALAR`, `VEC3`, `VEC4` or `MAT4`) floats, with their
     /// per-component bounds when `bounds` (glTF requires them on positions and animation
     /// times).
     fn push_floats(
