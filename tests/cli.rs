@@ -297,6 +297,63 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
 }
 
 #[test]
+fn drape_frames_of_an_amass_file_play_at_its_frame_rate() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let model = coarse_model(dir.path())?;
+    use npyz::WriterBuilder as _;
+    // An AMASS-like archive: 4 SMPL+H poses and the capture's frame rate.
+    let motion = dir.path().join("walk.npz");
+    let mut npz = npyz::npz::NpzWriter::create(&motion)?;
+    let mut w = npz
+        .array::<f64>("poses", Default::default())?
+        .default_dtype()
+        .shape(&[4, 156])
+        .begin_nd()?;
+    w.extend((0..4 * 156).map(|i| f64::from(i % 156) * 1e-3))?;
+    w.finish()?;
+    let mut w = npz
+        .array::<f64>("mocap_framerate", Default::default())?
+        .default_dtype()
+        .shape(&[])
+        .begin_nd()?;
+    w.extend([120.0])?;
+    w.finish()?;
+    drop(npz);
+    let run = |extra: &[&str]| -> anyhow::Result<serde_json::Value> {
+        let glb = dir.path().join("walk.glb");
+        let output = garmatnet()
+            .args(["drape", "--frames", "all", "--pose"])
+            .arg(&motion)
+            .args(extra)
+            .arg("--model")
+            .arg(&model)
+            .arg("--out")
+            .arg(&glb)
+            .output()?;
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        assert!(
+            output.status.success(),
+            "{stdout}{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(stdout.contains("4 frames"), "{stdout}");
+        glb_document(&glb)
+    };
+    // The last key time is the last frame's: 3 / 120 s at the file's rate, 3 / 24 with --fps.
+    let last_time = |doc: &serde_json::Value| {
+        let input = doc["animations"][0]["samplers"][0]["input"]
+            .as_u64()
+            .unwrap_or(0);
+        doc["accessors"][input as usize]["max"][0]
+            .as_f64()
+            .unwrap_or(0.0)
+    };
+    assert!((last_time(&run(&[])?) - 3.0 / 120.0).abs() < 1e-6);
+    assert!((last_time(&run(&["--fps", "24"])?) - 3.0 / 24.0).abs() < 1e-6);
+    Ok(())
+}
+
+#[test]
 fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let model = coarse_model(dir.path())?;

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use garmatnet::core::read_pose_frame_rate;
 use garmatnet::model::{
     Detail, FAR_FROM_TRAINING, Predictor, PushOut, SEQUENCE_BATCH, default_model_path,
     select_device,
@@ -45,9 +46,10 @@ pub struct DrapeArgs {
     /// joins the animation.
     #[arg(long)]
     pub frames: Option<String>,
-    /// Frames per second of a `--frames` animation.
-    #[arg(long, default_value_t = 30.0, requires = "frames")]
-    pub fps: f64,
+    /// Frames per second of a `--frames` animation. Default: the pose file's own (an AMASS
+    /// `.npz`'s `mocap_framerate`), else 30.
+    #[arg(long, requires = "frames")]
+    pub fps: Option<f64>,
     /// `full` (both nets) or `smooth` (the generally-fitting net only).
     #[arg(long, default_value = "full")]
     pub detail: Detail,
@@ -79,11 +81,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         args.omega.as_deref(),
         "Cotton Poplin",
     )?;
-    if !(args.fps.is_finite() && args.fps > 0.0) {
-        bail!(
-            "--fps must be a positive number of frames a second, got {}",
-            args.fps
-        );
+    if let Some(fps) = args.fps
+        && !(fps.is_finite() && fps > 0.0)
+    {
+        bail!("--fps must be a positive number of frames a second, got {fps}");
     }
     let sequence = match &args.frames {
         Some(frames) => {
@@ -216,6 +217,9 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     Ok(())
 }
 
+/// The frame rate of a `--frames` animation when neither `--fps` nor the pose file gives one.
+const DEFAULT_FPS: f64 = 30.0;
+
 /// Predicts `sequence` (frame number, pose) in batches, pushed out of the body as a single
 /// prediction is, and writes every output.
 fn write_sequence(
@@ -250,6 +254,11 @@ fn write_sequence(
     );
     let body = predictor.body().context("the predictor has no body")?;
     let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
+    let fps = match (args.fps, args.pose.as_deref()) {
+        (Some(fps), _) => fps,
+        (None, Some(file)) => read_pose_frame_rate(file)?.unwrap_or(DEFAULT_FPS),
+        (None, None) => DEFAULT_FPS,
+    };
     let simulated = if args.compare {
         Some(compare_sequence(
             predictor, body, &frames, &poses, material, &garments, total_ms,
@@ -263,7 +272,7 @@ fn write_sequence(
         poses: &poses,
         garments: &garments,
         simulated: simulated.as_deref(),
-        fps: args.fps,
+        fps,
     };
     for out in &args.out {
         let written = view
@@ -274,7 +283,7 @@ fn write_sequence(
                 "wrote {} ({} frames at {} frames a second)",
                 out.display(),
                 frames.len(),
-                args.fps
+                fps
             ),
             _ => println!(
                 "wrote {} files, {} … {}",

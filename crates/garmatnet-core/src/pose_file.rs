@@ -53,6 +53,79 @@ pub fn read_poses(path: impl AsRef<Path>) -> Result<Vec<Pose>> {
     }
 }
 
+/// The frame rate an AMASS-style `.npz` records for its poses, in frames a second:
+/// `mocap_framerate` (AMASS's SMPL+H releases) or `mocap_frame_rate` (its SMPL-X ones).
+/// `None` for `.json` and `.npy` files and for archives without either.
+///
+/// # Errors
+/// [`Error::Io`] if an `.npz` cannot be opened; [`Error::Parse`] naming the path for an
+/// archive that is not one, or a frame rate that is not one finite, positive number.
+pub fn read_pose_frame_rate(path: impl AsRef<Path>) -> Result<Option<Real>> {
+    let path = path.as_ref();
+    let is_npz = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("npz"));
+    if !is_npz {
+        return Ok(None);
+    }
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut archive = npyz::npz::NpzArchive::new(BufReader::new(file))
+        .map_err(|e| parse(path, format!("not a valid .npz (zip) archive: {e}")))?;
+    let names: Vec<String> = archive.array_names().map(str::to_owned).collect();
+    let Some(key) = FRAME_RATE_KEYS
+        .into_iter()
+        .find(|k| names.iter().any(|n| n == k))
+    else {
+        return Ok(None);
+    };
+    let bad = |what: String| {
+        parse(
+            path,
+            format!("array `{key}` {what}; expected one positive number"),
+        )
+    };
+    let mut bytes = Vec::new();
+    archive
+        .zip_archive()
+        .by_name(&npyz::npz::file_name_from_array_name(key))
+        .map_err(|e| bad(format!("cannot be read: {e}")))?
+        .take(MAX_FRAME_RATE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| bad(format!("cannot be read: {e}")))?;
+    if bytes.len() as u64 > MAX_FRAME_RATE_BYTES {
+        return Err(bad("is far too large".into()));
+    }
+    crate::npy_guard::plain_npy_header(&bytes).map_err(bad)?;
+    let npy = NpyFile::new(&bytes[..]).map_err(|e| bad(format!("is not a valid array: {e}")))?;
+    if npy.shape().iter().product::<u64>() != 1 {
+        return Err(bad(format!("has shape {:?}", npy.shape())));
+    }
+    let value = match npy.dtype() {
+        DType::Plain(t) if t.type_char() == TypeChar::Float && t.size_field() == 8 => {
+            npy.into_vec::<f64>().map(|v| v[0])
+        }
+        DType::Plain(t) if t.type_char() == TypeChar::Float && t.size_field() == 4 => {
+            npy.into_vec::<f32>().map(|v| Real::from(v[0]))
+        }
+        DType::Plain(t) if t.type_char() == TypeChar::Int && t.size_field() == 8 => {
+            npy.into_vec::<i64>().map(|v| v[0] as Real)
+        }
+        other => return Err(bad(format!("has dtype {}", other.descr()))),
+    }
+    .map_err(|e| bad(format!("cannot be read: {e}")))?;
+    if !(value.is_finite() && value > 0.0) {
+        return Err(bad(format!("holds {value}")));
+    }
+    Ok(Some(value))
+}
+
+/// The arrays AMASS stores its frame rate in, in the order they are looked for.
+const FRAME_RATE_KEYS: [&str; 2] = ["mocap_framerate", "mocap_frame_rate"];
+
+/// The largest frame-rate array read (a scalar takes about 130 bytes).
+const MAX_FRAME_RATE_BYTES: u64 = 4096;
+
 /// Writes `poses` as a JSON list of 72-vectors, atomically (a temporary file in the same
 /// directory, renamed over `path` once complete), so readers never see a half-written file.
 ///
@@ -239,6 +312,66 @@ mod tests {
             .unwrap();
         w.extend(data.iter().copied()).unwrap();
         w.finish().unwrap();
+    }
+
+    /// An AMASS-like archive: `poses` (`[2, 72]`, zeros) and one more array.
+    fn write_npz_with<T: npyz::AutoSerialize + Copy>(
+        path: &Path,
+        key: &str,
+        shape: &[u64],
+        data: &[T],
+    ) {
+        let mut npz = npyz::npz::NpzWriter::create(path).unwrap();
+        let mut w = npz
+            .array::<f64>("poses", Default::default())
+            .unwrap()
+            .default_dtype()
+            .shape(&[2, 72])
+            .begin_nd()
+            .unwrap();
+        w.extend(std::iter::repeat_n(0.0, 144)).unwrap();
+        w.finish().unwrap();
+        let mut w = npz
+            .array::<T>(key, Default::default())
+            .unwrap()
+            .default_dtype()
+            .shape(shape)
+            .begin_nd()
+            .unwrap();
+        w.extend(data.iter().copied()).unwrap();
+        w.finish().unwrap();
+    }
+
+    #[test]
+    fn amass_frame_rates_are_read_and_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.npz");
+        write_npz_with(&p, "mocap_framerate", &[], &[120.0_f64]);
+        assert_eq!(read_pose_frame_rate(&p).unwrap(), Some(120.0));
+        assert_eq!(read_poses(&p).unwrap().len(), 2);
+        write_npz_with(&p, "mocap_frame_rate", &[], &[59.94_f32]);
+        let rate = read_pose_frame_rate(&p).unwrap().unwrap();
+        assert!((rate - 59.94).abs() < 1e-5, "{rate}");
+        write_npz_with(&p, "mocap_framerate", &[1], &[60_i64]);
+        assert_eq!(read_pose_frame_rate(&p).unwrap(), Some(60.0));
+        // No rate: none, for an archive without one and for the other formats.
+        write_npz_with(&p, "betas", &[16], &[0.0_f64; 16]);
+        assert_eq!(read_pose_frame_rate(&p).unwrap(), None);
+        let json = dir.path().join("p.json");
+        write_poses_json(&json, &[Pose::zero()]).unwrap();
+        assert_eq!(read_pose_frame_rate(&json).unwrap(), None);
+        // A rate that is no rate is refused, naming the array.
+        for (shape, values) in [
+            (vec![], vec![0.0]),
+            (vec![], vec![f64::NAN]),
+            (vec![2], vec![30.0, 60.0]),
+        ] {
+            write_npz_with(&p, "mocap_framerate", &shape, &values);
+            let err = message(read_pose_frame_rate(&p).unwrap_err());
+            assert!(err.contains("mocap_framerate"), "{err}");
+        }
+        std::fs::write(&p, b"not a zip").unwrap();
+        assert!(read_pose_frame_rate(&p).is_err());
     }
 
     fn write_npy<T: npyz::AutoSerialize + Copy>(path: &Path, shape: &[u64], data: &[T]) {
