@@ -361,8 +361,10 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
             "1",
             "--sim-budgets",
             "2",
+            "--polish-budgets",
+            "2",
             "--batch",
-            "8",
+            "3",
             "--repeats",
             "1",
         ],
@@ -390,12 +392,36 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         "{frame}"
     );
     for method in ["GarMatNet full", "GarMatNet smooth", "GarMatNet again full"] {
-        for batch in [1, 8] {
+        for batch in [1, 3] {
             let row = find(method, batch);
             assert!(row["ms_per_frame"].as_f64().unwrap() > 0.0, "{row}");
             assert!(row["error_mm"].as_f64().unwrap().is_finite(), "{row}");
         }
+        // More samples (4) than a batch (3): the batched rows still cover every sample, so
+        // they err as the single predictions do.
+        let (one, batched) = (find(method, 1), find(method, 3));
+        assert!(
+            (one["error_mm"].as_f64().unwrap() - batched["error_mm"].as_f64().unwrap()).abs()
+                < 1e-3,
+            "{one} {batched}"
+        );
     }
+    // The prediction polished by 2 Newton iterations: timed with the prediction, and moved.
+    let polished = find("GarMatNet full + simulator ≤ 2 it", 1);
+    let raw = find("GarMatNet full", 1);
+    assert!(
+        polished["error_mm"].as_f64().unwrap().is_finite(),
+        "{polished}"
+    );
+    assert_ne!(
+        polished["error_mm"], raw["error_mm"],
+        "the polish changed nothing"
+    );
+    assert!(
+        polished["ms_per_frame"].as_f64().unwrap() > raw["ms_per_frame"].as_f64().unwrap(),
+        "{polished}"
+    );
+    assert_eq!(polished["samples"], 4);
     find("TailorNet-style baseline", 1);
     assert!(rows.iter().any(|r| r["pareto"] == true));
     for file in ["bench.md", "pareto.png"] {

@@ -43,6 +43,11 @@ pub struct BenchArgs {
     /// comma-separated; empty for none.
     #[arg(long, default_value = "8")]
     pub sim_frame_budgets: String,
+    /// Newton-iteration budgets to polish the main model's prediction with (the prediction
+    /// handed to the simulator on the posed body, then at most this many iterations; timed
+    /// whole), comma-separated; empty (the default) for none.
+    #[arg(long, default_value = "")]
+    pub polish_budgets: String,
     /// Batch size of the batched rows.
     #[arg(long, default_value_t = 64)]
     pub batch: usize,
@@ -65,6 +70,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let sim_budgets = whole_numbers("--sim-budgets", &args.sim_budgets)?;
     let sim_frame_budgets = whole_numbers("--sim-frame-budgets", &args.sim_frame_budgets)?;
+    let polish_budgets = whole_numbers("--polish-budgets", &args.polish_budgets)?;
     let config = BenchConfig {
         devices: args
             .devices
@@ -75,6 +81,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         sim_samples: args.sim_samples,
         sim_budgets,
         sim_frame_budgets,
+        polish_budgets,
         batch: args.batch,
         repeats: args.repeats,
     };

@@ -16,7 +16,8 @@ use crate::plots::{ParetoPoint, pareto_chart};
 pub struct BenchRow {
     /// What ran, e.g. `GarMatNet full` or `simulator ≤ 25 it`.
     pub method: String,
-    /// `simulator`, `garmatnet` or `baseline`.
+    /// `simulator`, `garmatnet`, `baseline` or `polish` (a prediction polished by the
+    /// simulator).
     pub family: String,
     /// `cpu` or `gpu` (the simulator: `cpu, 1 thread`).
     pub device: String,
@@ -83,6 +84,7 @@ pub(crate) fn write_report(dir: &Path, report: &BenchReport) -> Result<()> {
             group: match r.family.as_str() {
                 "simulator" => 0,
                 "garmatnet" => 1,
+                "polish" => 3,
                 _ => 2,
             },
             x: r.ms_per_frame,
@@ -96,7 +98,12 @@ pub(crate) fn write_report(dir: &Path, report: &BenchReport) -> Result<()> {
         "milliseconds per frame (log scale)",
         "mean per-vertex error (mm)",
         &points,
-        &["simulator", "GarMatNet", "baseline"],
+        &[
+            "simulator",
+            "GarMatNet",
+            "baseline",
+            "GarMatNet + simulator",
+        ],
         (1000, 640),
     )
 }

@@ -51,6 +51,11 @@ pub struct BenchConfig {
     /// step (no walk) and given at most this many iterations, on a solver made beforehand as
     /// an application keeps one (only the step is timed). Empty: none.
     pub sim_frame_budgets: Vec<usize>,
+    /// Newton-iteration budgets to polish the main model's prediction with, on the CPU: each
+    /// sample's prediction handed to the simulator on its posed body ([`FrameStepper`],
+    /// friction measured from the prediction) and given at most this many iterations; the
+    /// time covers the prediction, making the solver and the iterations. Empty: none.
+    pub polish_budgets: Vec<usize>,
     /// Batch size of the batched rows (the samples repeated to fill it).
     pub batch: usize,
     /// Timed repetitions of every batch-1 prediction (the median is reported).
@@ -65,6 +70,7 @@ impl Default for BenchConfig {
             sim_samples: 3,
             sim_budgets: vec![4, 10, 25, 50, 100, 300],
             sim_frame_budgets: vec![8],
+            polish_budgets: Vec::new(),
             batch: 64,
             repeats: 5,
         }
@@ -164,6 +170,10 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
                 )?);
             }
         }
+    }
+
+    if !config.polish_budgets.is_empty() {
+        rows.extend(bench_polish(&inputs.model, &data, &cases, config)?);
     }
 
     if let Some(dir) = &inputs.baseline {
@@ -337,6 +347,67 @@ fn simulator_row(method: String, ms: &[Real], error_sum_mm: Real) -> BenchRow {
     }
 }
 
+/// The main model's prediction polished by the simulator, one row per budget (batch 1, CPU).
+fn bench_polish(
+    model: &Path,
+    data: &TrainingDataset,
+    cases: &[Case],
+    config: &BenchConfig,
+) -> Result<Vec<BenchRow>> {
+    let device = select_device("cpu")?;
+    let predictor = Predictor::for_garment(
+        GarMatNetModel::load(model, &device)?,
+        data.garment(),
+        data.body().clone(),
+        &device,
+    )?;
+    let reference =
+        SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
+            dir: data.dir().to_owned(),
+            message: format!("the manifest's solver settings do not parse: {e}"),
+        })?;
+    // Warm-up: the first prediction allocates.
+    predictor.predict(&cases[0].pose, &cases[0].material, Detail::Full)?;
+    let mut rows = Vec::new();
+    for &budget in &config.polish_budgets {
+        let settings = DrapeSettings {
+            max_iterations: budget.clamp(1, reference.drape.max_iterations),
+            ..reference.drape.clone()
+        };
+        let (mut ms, mut err) = (Vec::new(), 0.0);
+        for case in cases {
+            let started = Instant::now();
+            let predicted = predictor.predict(&case.pose, &case.material, Detail::Full)?;
+            let mut shirt = FrameStepper::new(
+                data.garment(),
+                data.body(),
+                &case.material,
+                &settings,
+                &case.pose,
+                predicted.vertices,
+            )?;
+            shirt.step(&case.pose)?;
+            ms.push(started.elapsed().as_secs_f64() * 1e3);
+            err += mean_error_mm(shirt.positions(), &case.truth);
+        }
+        rows.push(BenchRow {
+            method: format!(
+                "GarMatNet full + simulator ≤ {} it",
+                settings.max_iterations
+            ),
+            family: "polish".into(),
+            device: "cpu".into(),
+            batch: 1,
+            ms_per_frame: median(ms),
+            error_mm: err / cases.len() as Real,
+            samples: cases.len(),
+            size_mb: file_mb(model),
+            pareto: false,
+        });
+    }
+    Ok(rows)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn bench_network(
     predictor: &Predictor,
@@ -374,8 +445,11 @@ fn bench_network(
         pareto: false,
     };
 
-    // Batched: the samples repeated to fill the batch, pushed out of their posed bodies.
-    let items: Vec<(Pose, [Real; 6])> = (0..config.batch)
+    // Batched: every sample once, repeated to fill whole batches, each batch one call,
+    // pushed out of the posed bodies. (Only the first `batch` samples were predicted before,
+    // so with more samples than a batch the error was averaged over too few.)
+    let batches = cases.len().div_ceil(config.batch);
+    let items: Vec<(Pose, [Real; 6])> = (0..batches * config.batch)
         .map(|i| {
             let c = &cases[i % cases.len()];
             (c.pose.clone(), c.material.to_normalized())
@@ -385,7 +459,10 @@ fn bench_network(
     let epsilon = PushOut::default().epsilon;
     let _ = predictor.predict_batch(&items[..1], detail)?;
     let started = Instant::now();
-    let mut meshes = predictor.predict_batch(&items, detail)?;
+    let mut meshes = Vec::with_capacity(items.len());
+    for chunk in items.chunks(config.batch) {
+        meshes.extend(predictor.predict_batch(chunk, detail)?);
+    }
     for (i, mesh) in meshes.iter_mut().enumerate() {
         let _ = push_out(&mut mesh.vertices, &bodies[i % cases.len()], epsilon);
     }
@@ -402,7 +479,7 @@ fn bench_network(
             method: label.to_owned(),
             family: "garmatnet".into(),
             device: device.to_owned(),
-            batch: items.len(),
+            batch: config.batch,
             ms_per_frame: ms,
             error_mm: batched_err,
             samples: cases.len(),
