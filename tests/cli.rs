@@ -205,6 +205,19 @@ fn drape_writes_every_format_and_compares_with_the_simulator() -> anyhow::Result
     Ok(())
 }
 
+/// Runs `cmd`, which must succeed (else both output streams are shown), and returns its
+/// stdout.
+fn stdout_of_success(cmd: &mut Command) -> anyhow::Result<String> {
+    let output = cmd.output()?;
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(
+        output.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    Ok(stdout)
+}
+
 /// The JSON document of a `.glb` file (its first chunk).
 fn glb_document(path: &std::path::Path) -> anyhow::Result<serde_json::Value> {
     let bytes = std::fs::read(path)?;
@@ -218,20 +231,15 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     let model = coarse_model(dir.path())?;
     let glb = dir.path().join("walk.glb");
     let obj = dir.path().join("walk.obj");
-    let output = garmatnet()
-        .args(["drape", "--frames", "10..=12", "--fps", "24", "--model"])
-        .arg(&model)
-        .arg("--out")
-        .arg(&glb)
-        .arg("--out")
-        .arg(&obj)
-        .output()?;
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let stdout = stdout_of_success(
+        garmatnet()
+            .args(["drape", "--frames", "10..=12", "--fps", "24", "--model"])
+            .arg(&model)
+            .arg("--out")
+            .arg(&glb)
+            .arg("--out")
+            .arg(&obj),
+    )?;
     assert!(stdout.contains("3 frames"), "{stdout}");
     let doc = glb_document(&glb)?;
     // The garment: two morph targets after frame 10. The body: skinned, its 24 joints
@@ -248,14 +256,13 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     );
     // Each numbered OBJ is that frame's prediction, as one `--pose FRAME` run writes it.
     let single = dir.path().join("single.obj");
-    let status = garmatnet()
-        .args(["drape", "--pose", "11", "--model"])
-        .arg(&model)
-        .arg("--out")
-        .arg(&single)
-        .output()?
-        .status;
-    assert!(status.success());
+    stdout_of_success(
+        garmatnet()
+            .args(["drape", "--pose", "11", "--model"])
+            .arg(&model)
+            .arg("--out")
+            .arg(&single),
+    )?;
     let framed = garmatnet::core::read_obj(dir.path().join("walk.0011.obj"))?;
     let alone = garmatnet::core::read_obj(&single)?;
     let worst = framed
@@ -265,19 +272,21 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
         .map(|(a, b)| (a - b).norm())
         .fold(0.0, f64::max);
     assert!(worst < 1e-5, "frame 11 differs by {worst} m in a batch");
+    assert!(dir.path().join("walk.0010.obj").exists());
+    assert!(dir.path().join("walk.0012.obj").exists());
+    assert!(!dir.path().join("walk.0013.obj").exists());
     // With --compare the simulator drapes the same frames and joins the animation.
     let compared = dir.path().join("c.glb");
     let png = dir.path().join("c.png");
-    let output = garmatnet()
-        .args(["drape", "--frames", "3..5", "--compare", "--model"])
-        .arg(&model)
-        .arg("--out")
-        .arg(&compared)
-        .arg("--out")
-        .arg(&png)
-        .output()?;
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{stdout}");
+    let stdout = stdout_of_success(
+        garmatnet()
+            .args(["drape", "--frames", "3..5", "--compare", "--model"])
+            .arg(&model)
+            .arg("--out")
+            .arg(&compared)
+            .arg("--out")
+            .arg(&png),
+    )?;
     assert!(stdout.contains("frame 4: simulated in"), "{stdout}");
     assert!(stdout.contains("prediction error mean"), "{stdout}");
     let doc = glb_document(&compared)?;
@@ -290,9 +299,6 @@ fn drape_frames_write_an_animation_and_numbered_files() -> anyhow::Result<()> {
     ] {
         assert!(dir.path().join(f).exists(), "{f} is missing");
     }
-    assert!(dir.path().join("walk.0010.obj").exists());
-    assert!(dir.path().join("walk.0012.obj").exists());
-    assert!(!dir.path().join("walk.0013.obj").exists());
     Ok(())
 }
 
@@ -321,21 +327,16 @@ fn drape_frames_of_an_amass_file_play_at_its_frame_rate() -> anyhow::Result<()> 
     drop(npz);
     let run = |extra: &[&str]| -> anyhow::Result<serde_json::Value> {
         let glb = dir.path().join("walk.glb");
-        let output = garmatnet()
-            .args(["drape", "--frames", "all", "--pose"])
-            .arg(&motion)
-            .args(extra)
-            .arg("--model")
-            .arg(&model)
-            .arg("--out")
-            .arg(&glb)
-            .output()?;
-        let stdout = String::from_utf8_lossy(&output.stdout);
-        assert!(
-            output.status.success(),
-            "{stdout}{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
+        let stdout = stdout_of_success(
+            garmatnet()
+                .args(["drape", "--frames", "all", "--pose"])
+                .arg(&motion)
+                .args(extra)
+                .arg("--model")
+                .arg(&model)
+                .arg("--out")
+                .arg(&glb),
+        )?;
         assert!(stdout.contains("4 frames"), "{stdout}");
         glb_document(&glb)
     };

@@ -301,8 +301,13 @@ mod tests {
             .collect()
     }
 
-    fn write_npz<T: npyz::AutoSerialize + Copy>(path: &Path, key: &str, shape: &[u64], data: &[T]) {
-        let mut npz = npyz::npz::NpzWriter::create(path).unwrap();
+    /// Adds array `key` of `shape` holding `data` to `npz`.
+    fn put<T: npyz::AutoSerialize + Copy>(
+        npz: &mut npyz::npz::NpzWriter<std::io::BufWriter<File>>,
+        key: &str,
+        shape: &[u64],
+        data: &[T],
+    ) {
         let mut w = npz
             .array::<T>(key, Default::default())
             .unwrap()
@@ -314,6 +319,15 @@ mod tests {
         w.finish().unwrap();
     }
 
+    fn write_npz<T: npyz::AutoSerialize + Copy>(path: &Path, key: &str, shape: &[u64], data: &[T]) {
+        put(
+            &mut npyz::npz::NpzWriter::create(path).unwrap(),
+            key,
+            shape,
+            data,
+        );
+    }
+
     /// An AMASS-like archive: `poses` (`[2, 72]`, zeros) and one more array.
     fn write_npz_with<T: npyz::AutoSerialize + Copy>(
         path: &Path,
@@ -322,24 +336,8 @@ mod tests {
         data: &[T],
     ) {
         let mut npz = npyz::npz::NpzWriter::create(path).unwrap();
-        let mut w = npz
-            .array::<f64>("poses", Default::default())
-            .unwrap()
-            .default_dtype()
-            .shape(&[2, 72])
-            .begin_nd()
-            .unwrap();
-        w.extend(std::iter::repeat_n(0.0, 144)).unwrap();
-        w.finish().unwrap();
-        let mut w = npz
-            .array::<T>(key, Default::default())
-            .unwrap()
-            .default_dtype()
-            .shape(shape)
-            .begin_nd()
-            .unwrap();
-        w.extend(data.iter().copied()).unwrap();
-        w.finish().unwrap();
+        put(&mut npz, "poses", &[2, 72], &[0.0_f64; 144]);
+        put(&mut npz, key, shape, data);
     }
 
     #[test]
