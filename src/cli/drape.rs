@@ -12,8 +12,8 @@ use garmatnet::model::{
 };
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
-    DrapeSequence, DrapeView, OutputFormat, comparison_image, resolve_frames, resolve_material,
-    resolve_pose, simulate_drape, simulate_sequence, vertex_errors_mm,
+    DrapeSequence, DrapeView, OutputFormat, compare_path, comparison_image, resolve_frames,
+    resolve_material, resolve_pose, simulate_drape, simulate_sequence, vertex_errors_mm,
 };
 use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
@@ -204,8 +204,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             .iter()
             .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
         {
-            let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("drape");
-            let path = out.with_file_name(format!("{stem}_compare.png"));
+            let path = compare_path(out);
             let image = comparison_image(&body, &garment, &truth, &errors, 20.0)?;
             garmatnet::core::render::save_png(&path, &image)?;
             println!(

@@ -143,6 +143,15 @@ pub fn numbered_path(path: &Path, frame: usize, last: usize) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// Where the comparison image of the PNG `path` goes: `drape.png` → `drape_compare.png`.
+#[must_use]
+pub fn compare_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
+    path.with_file_name(format!("{stem}_compare.png"))
+}
+
 /// The material of a `--material` / `--omega` pair: `omega` (normalised ω, see
 /// [`material_from_omega`]) when given, else `material` (a preset name or six physical
 /// values, see [`Material::from_str`](std::str::FromStr)), else the preset named `default`.
@@ -438,14 +447,7 @@ impl DrapeSequence<'_> {
             if let (Some(simulated), OutputFormat::Png) = (self.simulated, format) {
                 let truth = &simulated[k];
                 let errors = vertex_errors_mm(&garment.vertices, &truth.vertices)?;
-                let stem = path
-                    .file_stem()
-                    .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
-                let compare = numbered_path(
-                    &path.with_file_name(format!("{stem}_compare.png")),
-                    frame,
-                    last,
-                );
+                let compare = numbered_path(&compare_path(path), frame, last);
                 save_png(
                     &compare,
                     &comparison_image(&body, garment, truth, &errors, 20.0)?,
@@ -481,26 +483,16 @@ pub fn simulate_drape(
     material: &Material,
     settings: &SequenceSettings,
 ) -> Result<SimulatedDrape> {
-    let started = Instant::now();
-    let mut vertices = Vec::new();
-    let stats = drape_sequence(
+    // One pose: its drape's time runs from the start, rest drape and walk included.
+    simulate_sequence(
         garment,
         body,
-        material,
         std::slice::from_ref(pose),
+        material,
         settings,
-        None,
-        |_, x, _| {
-            vertices = x.to_vec();
-            Ok(())
-        },
-    )
-    .map_err(Error::Sim)?;
-    Ok(SimulatedDrape {
-        vertices,
-        wall_ms: started.elapsed().as_secs_f64() * 1e3,
-        converged: stats.last().is_some_and(|s| s.converged),
-    })
+    )?
+    .pop()
+    .ok_or_else(|| CoreError::InvalidArgument("the simulator returned no drape".into()).into())
 }
 
 /// The simulator's drapes along `poses`, in order, as a dataset walks them
