@@ -51,8 +51,8 @@ pub struct BenchConfig {
     /// step (no walk) and given at most this many iterations, on a solver made beforehand as
     /// an application keeps one (only the step is timed). Empty: none.
     pub sim_frame_budgets: Vec<usize>,
-    /// Newton-iteration budgets to polish the main model's prediction with, on the CPU: each
-    /// sample's prediction handed to the simulator on its posed body ([`FrameStepper`],
+    /// Newton-iteration budgets to polish the main model's predictions with, on each device
+    /// (the solver runs on the CPU): each sample's prediction handed to the simulator on its posed body ([`FrameStepper`],
     /// friction measured from the prediction) and given at most this many iterations; the
     /// time covers the prediction, making the solver and the iterations. Empty: none.
     pub polish_budgets: Vec<usize>,
@@ -150,7 +150,7 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
                 continue;
             }
         };
-        for (name, path) in &models {
+        for (m, (name, path)) in models.iter().enumerate() {
             let model = GarMatNetModel::load(path, &device)?;
             model.ensure_template(data.template_hash(), data.vertex_count())?;
             let size_mb = file_mb(path);
@@ -169,11 +169,18 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
                     size_mb,
                 )?);
             }
+            // The main model (the first) also hands its predictions to the simulator.
+            if m == 0 {
+                rows.extend(bench_polish(
+                    &predictor,
+                    &data,
+                    &cases,
+                    config,
+                    device_name,
+                    size_mb,
+                )?);
+            }
         }
-    }
-
-    if !config.polish_budgets.is_empty() {
-        rows.extend(bench_polish(&inputs.model, &data, &cases, config)?);
     }
 
     if let Some(dir) = &inputs.baseline {
@@ -347,20 +354,19 @@ fn simulator_row(method: String, ms: &[Real], error_sum_mm: Real) -> BenchRow {
     }
 }
 
-/// The main model's prediction polished by the simulator, one row per budget (batch 1, CPU).
+/// `predictor`'s predictions polished by the simulator (on the CPU, one thread), one row per
+/// budget of [`BenchConfig::polish_budgets`] (batch 1); none without budgets.
 fn bench_polish(
-    model: &Path,
+    predictor: &Predictor,
     data: &TrainingDataset,
     cases: &[Case],
     config: &BenchConfig,
+    device: &str,
+    size_mb: Option<Real>,
 ) -> Result<Vec<BenchRow>> {
-    let device = select_device("cpu")?;
-    let predictor = Predictor::for_garment(
-        GarMatNetModel::load(model, &device)?,
-        data.garment(),
-        data.body().clone(),
-        &device,
-    )?;
+    if config.polish_budgets.is_empty() {
+        return Ok(Vec::new());
+    }
     let reference =
         SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
             dir: data.dir().to_owned(),
@@ -396,12 +402,16 @@ fn bench_polish(
                 settings.max_iterations
             ),
             family: "polish".into(),
-            device: "cpu".into(),
+            device: if device == "cpu" {
+                device.to_owned()
+            } else {
+                format!("{device}, solver on cpu")
+            },
             batch: 1,
             ms_per_frame: median(ms),
             error_mm: err / cases.len() as Real,
             samples: cases.len(),
-            size_mb: file_mb(model),
+            size_mb,
             pareto: false,
         });
     }
