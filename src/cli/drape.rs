@@ -228,6 +228,12 @@ fn write_sequence(
     material: &Material,
     sequence: &[(usize, Pose)],
 ) -> Result<()> {
+    // Read before any work, so a malformed rate in the file stops the run at once.
+    let fps = match (args.fps, args.pose.as_deref()) {
+        (Some(fps), _) => fps,
+        (None, Some(file)) => read_pose_frame_rate(file)?.unwrap_or(DEFAULT_FPS),
+        (None, None) => DEFAULT_FPS,
+    };
     let poses: Vec<Pose> = sequence.iter().map(|(_, p)| p.clone()).collect();
     // A first batch warms the backend up, so the timing is the steady state's.
     predictor.predict_sequence(
@@ -253,11 +259,6 @@ fn write_sequence(
     );
     let body = predictor.body().context("the predictor has no body")?;
     let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
-    let fps = match (args.fps, args.pose.as_deref()) {
-        (Some(fps), _) => fps,
-        (None, Some(file)) => read_pose_frame_rate(file)?.unwrap_or(DEFAULT_FPS),
-        (None, None) => DEFAULT_FPS,
-    };
     let simulated = if args.compare {
         Some(compare_sequence(
             predictor, body, &frames, &poses, material, &garments, total_ms,
