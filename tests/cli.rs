@@ -491,6 +491,21 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
         )?)?)
     };
     let a = simulate("a", "5")?;
+    // The stored drapes of a fabric, as an animation and as files.
+    let glb = dir.path().join("a.glb");
+    let stdout = stdout_of_success(
+        garmatnet()
+            .args(["dataset", "animate"])
+            .arg(dir.path().join("a"))
+            .args(["--material", "random-5-001", "--out"])
+            .arg(&glb)
+            .arg("--out")
+            .arg(dir.path().join("a.obj")),
+    )?;
+    assert!(stdout.contains("random-5-001, frames 0..=0"), "{stdout}");
+    assert!(glb_document(&glb)?["meshes"][0]["name"] == "garment");
+    assert!(dir.path().join("a.0000.obj").exists());
+
     let materials = a["materials"].as_array().expect("a material list");
     let names: Vec<&str> = materials
         .iter()

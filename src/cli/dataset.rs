@@ -1,5 +1,6 @@
-//! `garmatnet dataset check|merge`: validate a dataset directory and print its statistics;
-//! merge shard outputs (full or slim) into one dataset.
+//! `garmatnet dataset check|merge|animate`: validate a dataset directory and print its
+//! statistics; merge shard outputs (full or slim) into one dataset; write a fabric's stored
+//! drapes as an animation to look at.
 
 use std::path::PathBuf;
 
@@ -26,6 +27,25 @@ pub enum DatasetCommand {
         #[arg(required = true)]
         sources: Vec<PathBuf>,
     },
+    /// Write one fabric's stored drapes over a run of frames, to look at the ground truth:
+    /// `.glb` as one animation (garment and skinned body), `.obj`, `.ply` and `.png` as one
+    /// numbered file a frame. Works on a dataset still being made, for the frames it has.
+    Animate {
+        /// The dataset directory.
+        dir: PathBuf,
+        /// The fabric, by its name in the dataset (case-insensitive).
+        #[arg(long)]
+        material: String,
+        /// Which of its poses: `START..END` (END excluded), `START..=END`, `START..` or `all`.
+        #[arg(long, default_value = "all")]
+        frames: String,
+        /// Frames per second of a `.glb` animation.
+        #[arg(long, default_value_t = 30.0)]
+        fps: f64,
+        /// Output file(s), by extension; repeat for several.
+        #[arg(long, required = true)]
+        out: Vec<PathBuf>,
+    },
 }
 
 /// Runs the command.
@@ -36,6 +56,49 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             println!("{report}");
             if !report.is_ok() {
                 bail!("{} has problems (listed above)", dir.display());
+            }
+            Ok(())
+        }
+        DatasetCommand::Animate {
+            dir,
+            material,
+            frames,
+            fps,
+            out,
+        } => {
+            for path in out {
+                garmatnet::train::OutputFormat::from_path(path)?;
+            }
+            let data = garmatnet::train::TrainingDataset::open(dir, true)?;
+            let stored = garmatnet::train::stored_sequence(&data, material, frames)?;
+            let view = garmatnet::train::DrapeSequence {
+                frames: &stored.frames,
+                body: data.body(),
+                poses: &stored.poses,
+                garments: &stored.garments,
+                simulated: None,
+                fps: *fps,
+            };
+            for path in out {
+                let written = view
+                    .write(path)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                match written.as_slice() {
+                    [one] if one == path => println!(
+                        "wrote {} ({}, frames {}..={} at {fps} frames a second)",
+                        path.display(),
+                        stored.material,
+                        stored.frames[0],
+                        stored.frames[stored.frames.len() - 1]
+                    ),
+                    _ => println!(
+                        "wrote {} files of {}, {} … {}",
+                        written.len(),
+                        stored.material,
+                        written[0].display(),
+                        written[written.len() - 1].display()
+                    ),
+                }
             }
             Ok(())
         }
