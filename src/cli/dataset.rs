@@ -79,27 +79,12 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
                 simulated: None,
                 fps: *fps,
             };
-            for path in out {
-                let written = view
-                    .write(path)
-                    .with_context(|| format!("writing {}", path.display()))?;
-                match written.as_slice() {
-                    [one] if one == path => println!(
-                        "wrote {} ({}, frames {}..={} at {fps} frames a second)",
-                        path.display(),
-                        stored.material,
-                        stored.frames[0],
-                        stored.frames[stored.frames.len() - 1]
-                    ),
-                    _ => println!(
-                        "wrote {} files of {}, {} … {}",
-                        written.len(),
-                        stored.material,
-                        written[0].display(),
-                        written[written.len() - 1].display()
-                    ),
-                }
-            }
+            let (first, last) = (stored.frames[0], stored.frames[stored.frames.len() - 1]);
+            super::write_sequence_outputs(
+                &view,
+                out,
+                &format!("{}, frames {first}..={last}", stored.material),
+            )?;
             Ok(())
         }
         DatasetCommand::Merge { into, sources } => {

@@ -274,25 +274,7 @@ fn write_sequence(
         simulated: simulated.as_deref(),
         fps,
     };
-    for out in &args.out {
-        let written = view
-            .write(out)
-            .with_context(|| format!("writing {}", out.display()))?;
-        match written.as_slice() {
-            [one] if one == out => println!(
-                "wrote {} ({} frames at {} frames a second)",
-                out.display(),
-                frames.len(),
-                fps
-            ),
-            _ => println!(
-                "wrote {} files, {} … {}",
-                written.len(),
-                written[0].display(),
-                written[written.len() - 1].display()
-            ),
-        }
-    }
+    super::write_sequence_outputs(&view, &args.out, &format!("{} frames", frames.len()))?;
     Ok(())
 }
 

@@ -247,6 +247,14 @@ fn file_mb(path: &Path) -> Option<Real> {
     std::fs::metadata(path).ok().map(|m| m.len() as Real / 1e6)
 }
 
+/// The solver settings `data` was made with, from its manifest.
+fn dataset_settings(data: &TrainingDataset) -> Result<SequenceSettings> {
+    SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
+        dir: data.dir().to_owned(),
+        message: format!("the manifest's solver settings do not parse: {e}"),
+    })
+}
+
 fn bench_simulator(
     data: &TrainingDataset,
     cases: &[Case],
@@ -255,11 +263,7 @@ fn bench_simulator(
     if cases.is_empty() {
         return Ok(Vec::new());
     }
-    let reference =
-        SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
-            dir: data.dir().to_owned(),
-            message: format!("the manifest's solver settings do not parse: {e}"),
-        })?;
+    let reference = dataset_settings(data)?;
     let cap = reference.drape.max_iterations;
     let mut budgets: Vec<usize> = config
         .sim_budgets
@@ -367,11 +371,7 @@ fn bench_polish(
     if config.polish_budgets.is_empty() {
         return Ok(Vec::new());
     }
-    let reference =
-        SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| Error::Dataset {
-            dir: data.dir().to_owned(),
-            message: format!("the manifest's solver settings do not parse: {e}"),
-        })?;
+    let reference = dataset_settings(data)?;
     // Warm-up: the first prediction allocates.
     predictor.predict(&cases[0].pose, &cases[0].material, Detail::Full)?;
     let mut rows = Vec::new();
