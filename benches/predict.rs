@@ -2,9 +2,11 @@
 //!
 //! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
 //! batch 1 and 64, `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
-//! the paper-sized nets (hidden 512/64/512), full-width and with a rank-128 output head; and a 100-character `Scene` with mixed detail
-//! where 10 % of the characters change each frame. Weights are untrained: speed does not
-//! depend on their values.
+//! the paper-sized nets (hidden 512/64/512), full-width and with a rank-128 output head; a 100-character `Scene` with mixed detail
+//! where 10 % of the characters change each frame; and 120 frames of the built-in motion in
+//! one `predict_sequence` call (batched nets, each frame pushed out of its posed body), as
+//! `garmatnet drape --frames` predicts them. Weights are untrained: speed does not depend on
+//! their values.
 
 use burn::prelude::Device;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -14,6 +16,7 @@ use garmatnet::core::{
 use garmatnet::model::{
     Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, Scene, TemplateInfo,
 };
+use garmatnet::sim::MotionGenerator;
 
 /// The paper-sized nets for `resolution`, with a low-rank output head of `rank` components
 /// when given; returns the predictor and the weights' size (MB, f32).
@@ -90,6 +93,28 @@ fn bench_predict(c: &mut Criterion) {
     }
 }
 
+fn bench_sequence(c: &mut Criterion) {
+    let device = Device::flex();
+    let mut group = c.benchmark_group("predict_sequence_120_frames");
+    let motion = MotionGenerator::new(0, 120).generate();
+    let denim = Material::preset("Denim Heavy").expect("preset");
+    for resolution in [Resolution::Default, Resolution::Paper] {
+        let (predictor, _) = predictor(resolution, Some(128), &device);
+        group.throughput(Throughput::Elements(motion.len() as u64));
+        group.bench_function(
+            BenchmarkId::new("Full", format!("{resolution}_rank128")),
+            |b| {
+                b.iter(|| {
+                    predictor
+                        .predict_sequence(&motion, &denim, Detail::Full)
+                        .expect("prediction")
+                })
+            },
+        );
+    }
+    group.finish();
+}
+
 fn bench_scene(c: &mut Criterion) {
     let device = Device::flex();
     let (predictor, _) = predictor(Resolution::Default, None, &device);
@@ -127,6 +152,6 @@ fn bench_scene(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().without_plots().sample_size(20).measurement_time(std::time::Duration::from_secs(4));
-    targets = bench_predict, bench_scene
+    targets = bench_predict, bench_scene, bench_sequence
 }
 criterion_main!(benches);
