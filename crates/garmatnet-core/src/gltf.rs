@@ -407,13 +407,12 @@ impl GlbBuilder {
             },
             &[],
         )?;
-        // `add_mesh` made the mesh's node a scene root; give it the skin attributes.
-        let mesh_node = self.nodes.len() - 1;
+        // `add_mesh` just added the mesh and its node (a scene root); give them the skin.
+        let (mesh, mesh_node) = (self.meshes.len() - 1, self.nodes.len() - 1);
         let joints_view = self.push_view(&joints, Some(ARRAY_BUFFER));
         self.accessors.push(json!({"bufferView": joints_view, "componentType": UNSIGNED_SHORT, "count": n, "type": "VEC4"}));
         let joints_acc = self.accessors.len() - 1;
         let weights_acc = self.push_floats(&weights, "VEC4", Some(ARRAY_BUFFER), false);
-        let mesh = self.nodes[mesh_node]["mesh"].as_u64().unwrap_or_default() as usize;
         let attributes = &mut self.meshes[mesh]["primitives"][0]["attributes"];
         attributes["JOINTS_0"] = json!(joints_acc);
         attributes["WEIGHTS_0"] = json!(weights_acc);
