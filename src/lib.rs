@@ -19,6 +19,43 @@
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! A whole motion, written as one animated glTF (the garment frame by frame, the body skinned
+//! to its skeleton):
+//!
+//! ```no_run
+//! use garmatnet::core::{
+//!     GlbAnimatedMesh, GlbSkinnedMesh, SkinnedBody, read_poses, write_glb_animation,
+//! };
+//! use garmatnet::{Detail, GarmentMesh, Material, Predictor, TriMesh};
+//!
+//! # fn main() -> anyhow::Result<()> {
+//! let device = garmatnet::select_device("cpu")?;
+//! let predictor = Predictor::default_tshirt(&device)?; // the shipped model
+//! let motion = read_poses("walk.npz")?; // AMASS .npz, .npy or a JSON list of poses
+//! let denim = Material::preset("denim heavy")?;
+//! let shirts = predictor
+//!     .predict_sequence(&motion, &denim, Detail::Full)? // batched, pushed out of the body
+//!     .into_iter()
+//!     .map(GarmentMesh::into_tri_mesh)
+//!     .collect::<Result<Vec<TriMesh>, _>>()?;
+//! let body = predictor.body().expect("default_tshirt knows its body");
+//! write_glb_animation(
+//!     "walk.glb",
+//!     &[GlbAnimatedMesh { name: "shirt", frames: &shirts, color: [70, 110, 170] }],
+//!     &[GlbSkinnedMesh {
+//!         name: "body",
+//!         rest: body.rest_mesh(),
+//!         weights: body.rest_mesh_weights(),
+//!         skeleton: body.skeleton(),
+//!         poses: &motion,
+//!         color: [196, 186, 178],
+//!     }],
+//!     30.0, // frames a second
+//! )?;
+//! # Ok(())
+//! # }
+//! ```
 
 pub use garmatnet_core as core;
 pub use garmatnet_model as model;
