@@ -85,13 +85,7 @@ pub fn read_pose_frame_rate(path: impl AsRef<Path>) -> Result<Option<Real>> {
             format!("array `{key}` {what}; expected one positive number"),
         )
     };
-    let mut bytes = Vec::new();
-    archive
-        .zip_archive()
-        .by_name(&npyz::npz::file_name_from_array_name(key))
-        .map_err(|e| bad(format!("cannot be read: {e}")))?
-        .take(MAX_FRAME_RATE_BYTES + 1)
-        .read_to_end(&mut bytes)
+    let bytes = npz_member(&mut archive, key, MAX_FRAME_RATE_BYTES)
         .map_err(|e| bad(format!("cannot be read: {e}")))?;
     if bytes.len() as u64 > MAX_FRAME_RATE_BYTES {
         return Err(bad("is far too large".into()));
@@ -118,6 +112,24 @@ pub fn read_pose_frame_rate(path: impl AsRef<Path>) -> Result<Option<Real>> {
         return Err(bad(format!("holds {value}")));
     }
     Ok(Some(value))
+}
+
+/// The bytes of array `key` of `archive`, at most `cap + 1` of them (more than `cap` means
+/// the array is too large; the caller says so), or why they cannot be read.
+fn npz_member<R: Read + Seek>(
+    archive: &mut npyz::npz::NpzArchive<R>,
+    key: &str,
+    cap: u64,
+) -> std::result::Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    archive
+        .zip_archive()
+        .by_name(&npyz::npz::file_name_from_array_name(key))
+        .map_err(|e| e.to_string())?
+        .take(cap + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
 }
 
 /// The arrays AMASS stores its frame rate in, in the order they are looked for.
@@ -169,15 +181,7 @@ fn read_npz<R: Read + Seek>(reader: R, path: &Path) -> Result<Vec<Pose>> {
             ),
         ));
     }
-    let member_name = npyz::npz::file_name_from_array_name("poses");
-    let member = archive
-        .zip_archive()
-        .by_name(&member_name)
-        .map_err(|e| parse(path, format!("cannot read array `poses`: {e}")))?;
-    let mut bytes = Vec::new();
-    member
-        .take(MAX_POSE_ARRAY_BYTES + 1)
-        .read_to_end(&mut bytes)
+    let bytes = npz_member(&mut archive, "poses", MAX_POSE_ARRAY_BYTES)
         .map_err(|e| parse(path, format!("cannot read array `poses`: {e}")))?;
     if bytes.len() as u64 > MAX_POSE_ARRAY_BYTES {
         return Err(parse(
