@@ -52,6 +52,8 @@ pub use model_file::{
     FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
 };
 pub use output_normalizer::{MIN_STD, OutputNormalizer};
-pub use predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, template_hash_hex};
+pub use predictor::{
+    Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions, template_hash_hex,
+};
 pub use push_out::{PushOut, PushOutReport, push_out};
 pub use scene::{Character, CharacterOutput, Scene, SceneUpdate};

@@ -82,6 +82,61 @@ impl GarmentMesh {
 /// amortise a pass, few enough that a long sequence never holds all its activations at once.
 pub const SEQUENCE_BATCH: usize = 64;
 
+/// The garments of a pose sequence, predicted a batch at a time ([`Predictor::sequence`]).
+///
+/// Yields one mesh per pose, in order. An error (a batch the nets could not predict, e.g.
+/// a damaged model that emits a non-finite value) is yielded once, in place of that batch's
+/// first mesh, and the iterator ends after it.
+#[derive(Debug)]
+pub struct SequencePredictions<'a> {
+    predictor: &'a Predictor,
+    batches: std::slice::Chunks<'a, Pose>,
+    material: [Real; MATERIAL_DIM],
+    detail: Detail,
+    ready: std::vec::IntoIter<GarmentMesh>,
+    failed: bool,
+}
+
+impl Iterator for SequencePredictions<'_> {
+    type Item = Result<GarmentMesh>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if let Some(mesh) = self.ready.next() {
+            return Some(Ok(mesh));
+        }
+        if self.failed {
+            return None;
+        }
+        let batch = self.batches.next()?;
+        match self
+            .predictor
+            .predict_sequence_batch(batch, &self.material, self.detail)
+        {
+            Ok(meshes) => {
+                self.ready = meshes.into_iter();
+                self.ready.next().map(Ok)
+            }
+            Err(e) => {
+                self.failed = true;
+                Some(Err(e))
+            }
+        }
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let ready = self.ready.len();
+        if self.failed {
+            return (ready, Some(ready));
+        }
+        let rest: usize = self.batches.clone().map(<[Pose]>::len).sum();
+        // The next batch yields at least one item: its first mesh, or the error that ends
+        // the sequence.
+        (ready + usize::from(rest > 0), Some(ready + rest))
+    }
+}
+
+impl std::iter::FusedIterator for SequencePredictions<'_> {}
+
 /// Distinguishes predictors, so caches built against one model are not reused with another.
 static NEXT_PREDICTOR_ID: AtomicU64 = AtomicU64::new(1);
 
@@ -350,7 +405,9 @@ impl Predictor {
     /// pushed out of its posed body as [`Predictor::predict`] pushes one. The same meshes as
     /// one `predict` call per pose (to float rounding), with the nets' share of the time cut
     /// by batching, so the push-out is most of what a frame costs (`garmatnet drape
-    /// --frames` uses it; figures in README, "The command line").
+    /// --frames` uses it; figures in README, "The command line"). Holds every mesh at once;
+    /// [`Predictor::sequence`] yields the same meshes one at a time, for captures too long
+    /// to keep in memory.
     ///
     /// # Errors
     /// As [`Predictor::predict`], for the material or the first bad pose.
@@ -360,17 +417,70 @@ impl Predictor {
         material: &Material,
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
+        self.sequence(poses, material, detail)?.collect()
+    }
+
+    /// The meshes of [`Predictor::predict_sequence`], predicted a batch of
+    /// [`SEQUENCE_BATCH`] poses at a time as the iterator is advanced, so at most one
+    /// batch's meshes are held: a capture of any length streams in bounded memory (to
+    /// files, or to an engine frame by frame).
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use garmatnet_core::{Material, read_poses, write_obj};
+    /// use garmatnet_model::{Detail, Predictor, select_device};
+    ///
+    /// let predictor = Predictor::default_tshirt(&select_device("cpu")?)?;
+    /// let motion = read_poses("long_capture.npz")?;
+    /// let denim = Material::preset("denim heavy")?;
+    /// for (frame, mesh) in predictor.sequence(&motion, &denim, Detail::Full)?.enumerate() {
+    ///     let mesh = mesh?;
+    ///     write_obj(format!("frame{frame:05}.obj"), &mesh.into_tri_mesh()?)?;
+    /// }
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Predictor::predict`], at once, for the material or the first non-finite pose
+    /// (the message names its index). A batch that fails later is an error item
+    /// ([`SequencePredictions`]).
+    pub fn sequence<'a>(
+        &'a self,
+        poses: &'a [Pose],
+        material: &Material,
+        detail: Detail,
+    ) -> Result<SequencePredictions<'a>> {
         material.validate()?;
         let normalized = material.to_normalized();
-        let mut meshes = Vec::with_capacity(poses.len());
-        for chunk in poses.chunks(SEQUENCE_BATCH) {
-            let items: Vec<_> = chunk.iter().map(|p| (p.clone(), normalized)).collect();
-            for (mut mesh, pose) in self.predict_batch(&items, detail)?.into_iter().zip(chunk) {
-                if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
-                    // As in `predict`, the report is dropped: `predict_on_body` returns it.
-                    let _ = push_out(&mut mesh.vertices, &body.pose(pose), self.push_out.epsilon);
-                }
-                meshes.push(mesh);
+        for (i, pose) in poses.iter().enumerate() {
+            validate_inputs(pose, &normalized).map_err(|e| {
+                garmatnet_core::Error::InvalidArgument(format!("pose {i} of the sequence: {e}"))
+            })?;
+        }
+        Ok(SequencePredictions {
+            predictor: self,
+            batches: poses.chunks(SEQUENCE_BATCH),
+            material: normalized,
+            detail,
+            ready: Vec::new().into_iter(),
+            failed: false,
+        })
+    }
+
+    /// The meshes of one batch of a sequence, each pushed out of its posed body.
+    fn predict_sequence_batch(
+        &self,
+        poses: &[Pose],
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        let items: Vec<_> = poses.iter().map(|p| (p.clone(), *material)).collect();
+        let mut meshes = self.predict_batch(&items, detail)?;
+        if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
+            for (mesh, pose) in meshes.iter_mut().zip(poses) {
+                // As in `predict`, the report is dropped: `predict_on_body` returns it.
+                let _ = push_out(&mut mesh.vertices, &body.pose(pose), self.push_out.epsilon);
             }
         }
         Ok(meshes)
@@ -660,6 +770,17 @@ mod tests {
             .predict_normalized(&Pose::zero(), &[0.5; 6], Detail::Smooth)
             .unwrap_err();
         assert!(matches!(err, Error::NonFiniteOutput { .. }), "{err}");
+        // A sequence yields the failure once and ends.
+        let poses = vec![Pose::zero(); SEQUENCE_BATCH + 1];
+        let silk = Material::preset("Silk Chiffon").unwrap();
+        let mut stream = p.sequence(&poses, &silk, Detail::Smooth).unwrap();
+        assert!(matches!(
+            stream.next(),
+            Some(Err(Error::NonFiniteOutput { .. }))
+        ));
+        assert!(stream.next().is_none());
+        assert_eq!(stream.size_hint(), (0, Some(0)));
+        assert!(p.predict_sequence(&poses, &silk, Detail::Smooth).is_err());
     }
 
     #[test]
@@ -766,6 +887,50 @@ mod tests {
             p.predict_sequence(&[], &silk, Detail::Full)
                 .unwrap()
                 .is_empty()
+        );
+    }
+
+    #[test]
+    fn a_streamed_sequence_yields_the_collected_meshes_a_batch_at_a_time() {
+        let mut p = predictor(3, DisplacementFrame::World);
+        p.body = Some(CapsuleBody::smpl_neutral());
+        let mut rng = SplitMix64::new(6);
+        let limits = JointLimits::default();
+        let n = 2 * SEQUENCE_BATCH + 5;
+        let poses: Vec<Pose> = (0..n).map(|_| limits.sample(&mut rng, 1.0)).collect();
+        let denim = Material::preset("Denim Heavy").unwrap();
+        let all = p.predict_sequence(&poses, &denim, Detail::Full).unwrap();
+        let mut stream = p.sequence(&poses, &denim, Detail::Full).unwrap();
+        assert_eq!(stream.size_hint(), (1, Some(n)));
+        let first = stream.next().unwrap().unwrap();
+        assert_eq!(first, all[0]);
+        // One batch predicted, its other meshes waiting: no more than a batch is held.
+        assert_eq!(stream.ready.len(), SEQUENCE_BATCH - 1);
+        assert_eq!(stream.size_hint(), (SEQUENCE_BATCH - 1 + 1, Some(n - 1)));
+        let rest: Vec<GarmentMesh> = stream.by_ref().map(Result::unwrap).collect();
+        assert_eq!(rest.as_slice(), &all[1..]);
+        assert_eq!(stream.size_hint(), (0, Some(0)));
+        assert!(stream.next().is_none(), "fused");
+        assert!(
+            p.sequence(&[], &denim, Detail::Smooth)
+                .unwrap()
+                .next()
+                .is_none()
+        );
+        let mut bad = denim;
+        bad.density = f64::NAN;
+        assert!(matches!(
+            p.sequence(&poses, &bad, Detail::Full),
+            Err(Error::Core(_))
+        ));
+        // A bad pose anywhere is refused before any work, by its index.
+        let mut poses = poses;
+        poses[SEQUENCE_BATCH + 2].set_joint(4, Vec3::new(0.0, f64::INFINITY, 0.0));
+        let err = p.sequence(&poses, &denim, Detail::Full).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains(&format!("pose {} of the sequence", SEQUENCE_BATCH + 2)),
+            "{err}"
         );
     }
 
