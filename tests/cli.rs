@@ -726,6 +726,122 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
 }
 
 #[test]
+fn simulate_joins_datasets_of_different_fabrics_without_draping_again() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let simulate = |out: &str, args: &[&str], reuse: &[&str]| {
+        let mut cmd = garmatnet();
+        cmd.arg("simulate")
+            .args(args)
+            .args(["--poses", "1", "--resolution", "coarse", "--quiet", "--out"])
+            .arg(dir.path().join(out));
+        if reuse.is_empty() {
+            cmd.arg("--solver").arg(&quick);
+        }
+        for r in reuse {
+            cmd.arg("--reuse").arg(dir.path().join(r));
+        }
+        cmd.output()
+    };
+    let made = |out: &str, args: &[&str]| -> anyhow::Result<()> {
+        let o = simulate(out, args, &[])?;
+        anyhow::ensure!(o.status.success(), "{o:?}");
+        Ok(())
+    };
+    // Two datasets of other fabrics: a preset and a uniform draw; a preset and a mix.
+    made(
+        "a",
+        &[
+            "--materials",
+            "Felt",
+            "--random-materials",
+            "1",
+            "--material-seed",
+            "5",
+        ],
+    )?;
+    let between = [
+        "--random-materials",
+        "1",
+        "--material-seed",
+        "5",
+        "--random-between",
+    ];
+    made(
+        "b",
+        &[&["--materials", "Linen"][..], &between, &["Felt,Linen"]].concat(),
+    )?;
+    let names = |out: &str| -> anyhow::Result<Vec<String>> {
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(out).join("manifest.json"))?)?;
+        Ok(m["materials"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e["name"].as_str().map(str::to_owned))
+            .collect())
+    };
+    // Every fabric of both, copied, none draped.
+    let joined = simulate("ab", &["--materials", "reused"], &["a", "b"])?;
+    let stdout = String::from_utf8_lossy(&joined.stdout);
+    assert!(joined.status.success(), "{joined:?}");
+    assert!(
+        stdout.contains("wrote 0 samples (4 already done, 4 of them copied from --reuse"),
+        "{stdout}"
+    );
+    assert_eq!(names("ab")?, ["Felt", "random-5-000", "Linen", "mix-5-000"]);
+    let npy = |d: &str, s: &str| {
+        std::fs::read(
+            dir.path()
+                .join(d)
+                .join("samples")
+                .join(s)
+                .join("simulated.npy"),
+        )
+    };
+    assert_eq!(npy("b", "m001_p0000")?, npy("ab", "m003_p0000")?);
+    // A reused fabric by name, beside a preset listed both ways (once).
+    let picked = simulate("c", &["--materials", "mix-5-000,Linen,reused"], &["b"])?;
+    assert!(picked.status.success(), "{picked:?}");
+    assert_eq!(names("c")?, ["mix-5-000", "Linen"]);
+    // A name that is neither a preset nor a reused fabric; one named twice; `reused` alone.
+    for (materials, reuse, says) in [
+        (
+            "mix-5-007",
+            &["b"][..],
+            "nor is it a fabric of the --reuse datasets",
+        ),
+        ("Linen,linen", &["b"][..], "listed twice"),
+        ("reused", &[][..], "give one"),
+    ] {
+        let refused = simulate("refused", &["--materials", materials], reuse)?;
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            !refused.status.success() && stderr.contains(says),
+            "{stderr}"
+        );
+    }
+    // Two fabrics of one name with other ω (mixes of other presets) are refused.
+    made(
+        "d",
+        &[
+            &["--materials", "Tulle"][..],
+            &between,
+            &["Tulle,Denim Heavy"],
+        ]
+        .concat(),
+    )?;
+    let clash = simulate("bd", &["--materials", "reused"], &["b", "d"])?;
+    let stderr = String::from_utf8_lossy(&clash.stderr);
+    assert!(
+        !clash.status.success() && stderr.contains("two fabrics are named `mix-5-000`"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("bd").exists() && !dir.path().join("refused").exists());
+    Ok(())
+}
+
+#[test]
 fn simulate_resumes_a_dataset_with_the_solver_settings_it_was_made_with() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;

@@ -18,7 +18,8 @@ pub enum DatasetCommand {
     },
     /// Merge shard outputs (`simulate --shard i/k`) into one dataset. A source sample may be
     /// slim (only `simulated.npy` and `stats.json`): its smoothed garment and body points are
-    /// recomputed, byte for byte as `simulate` writes them.
+    /// recomputed, byte for byte as `simulate` writes them. Datasets of different fabrics
+    /// (same poses and settings) join with `simulate --materials reused --reuse A --reuse B`.
     Merge {
         /// The merged dataset (created, or added to when it holds the same spec).
         #[arg(long)]

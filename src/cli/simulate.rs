@@ -18,7 +18,10 @@ use garmatnet::train::Progress;
 /// Drape the T-shirt for every (material, pose) pair and write a dataset directory.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
-    /// `all`, or a comma-separated list of preset names.
+    /// `all` (the presets), or a comma-separated list of preset names, of fabrics of a
+    /// `--reuse` dataset (e.g. `random-0-003`, with the ω it was made with) and of `reused`
+    /// (every fabric of the `--reuse` datasets), so datasets of different fabrics merge
+    /// into one: `--materials all,reused --reuse A --reuse B`.
     #[arg(long, default_value = "all")]
     pub materials: String,
     /// Also drape this many random materials, uniform in the normalised ω cube (after the
@@ -102,6 +105,77 @@ pub fn parse_materials(spec: &str) -> Result<Vec<(String, Material)>> {
     Ok(out)
 }
 
+/// The fabrics `--materials` names: [`parse_materials`]'s, plus fabrics of the datasets in
+/// `reuse` by name (with the ω they were made with) and `reused` for all of them, in the
+/// order given. A fabric reached twice through `all` or `reused` is listed once; one named
+/// twice, or two of one name with different ω, is an error.
+pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, Material)>> {
+    let mut reused: Vec<(String, Material)> = Vec::new();
+    for dir in reuse {
+        let manifest = Manifest::read(dir)
+            .with_context(|| format!("reading the dataset to reuse in {}", dir.display()))?;
+        for entry in &manifest.spec.materials {
+            let material = Material::from_array(entry.omega)
+                .with_context(|| format!("material `{}` of {}", entry.name, dir.display()))?;
+            reused.push((entry.name.clone(), material));
+        }
+    }
+    // (name, material, named explicitly)
+    let mut out: Vec<(String, Material, bool)> = Vec::new();
+    let mut add = |name: &str, material: Material, explicit: bool| -> Result<()> {
+        match out.iter().find(|(n, _, _)| n == name) {
+            None => out.push((name.to_owned(), material, explicit)),
+            Some((_, m, _)) if m.as_array() != material.as_array() => bail!(
+                "two fabrics are named `{name}` with different parameters ({:?} and {:?}): \
+                 a material of that name with other parameters is another fabric; rename \
+                 one, or leave one out of --materials",
+                m.as_array(),
+                material.as_array()
+            ),
+            Some((_, _, true)) if explicit => bail!("material `{name}` is listed twice"),
+            Some(_) => {}
+        }
+        Ok(())
+    };
+    let items: Vec<&str> = spec
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .collect();
+    if items.is_empty() {
+        bail!(
+            "--materials is empty: give `all`, preset names (see `garmatnet materials`), or \
+             fabrics of a --reuse dataset"
+        );
+    }
+    for item in items {
+        if item.eq_ignore_ascii_case("all") {
+            for p in presets() {
+                add(p.name, p.material, false)?;
+            }
+        } else if item.eq_ignore_ascii_case("reused") {
+            if reuse.is_empty() {
+                bail!("--materials reused takes the fabrics of the --reuse datasets: give one");
+            }
+            for (name, material) in &reused {
+                add(name, *material, false)?;
+            }
+        } else if let Some((name, material)) = reused.iter().find(|(n, _)| n == item) {
+            add(name, *material, true)?;
+        } else {
+            let preset = find_preset(item).map_err(|e| {
+                if reuse.is_empty() {
+                    anyhow::Error::from(e)
+                } else {
+                    anyhow::anyhow!("{e}; nor is it a fabric of the --reuse datasets")
+                }
+            })?;
+            add(preset.name, preset.material, true)?;
+        }
+    }
+    Ok(out.into_iter().map(|(n, m, _)| (n, m)).collect())
+}
+
 /// `count` materials uniform in the normalised ω cube from `seed`, named `random-SEED-INDEX`.
 pub fn random_materials(count: usize, seed: u64) -> Result<Vec<(String, Material)>> {
     let mut rng = SplitMix64::new(seed);
@@ -162,7 +236,7 @@ fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
 
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    let mut materials = parse_materials(&args.materials)?;
+    let mut materials = resolve_materials(&args.materials, &args.reuse)?;
     match &args.random_between {
         Some(_) if args.random_materials == 0 => {
             bail!("--random-between says where to draw --random-materials N: give N too")
@@ -174,6 +248,19 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         )?),
         None => materials.extend(random_materials(args.random_materials, args.material_seed)?),
     }
+    // A drawn fabric that `reused` already brought in (same name and ω) is listed once.
+    let mut listed: Vec<(String, Material)> = Vec::with_capacity(materials.len());
+    for (name, material) in materials {
+        match listed.iter().find(|(n, _)| *n == name) {
+            None => listed.push((name, material)),
+            Some((_, m)) if m.as_array() == material.as_array() => {}
+            Some(_) => bail!(
+                "the drawn fabric `{name}` has other parameters than the --materials fabric of \
+                 that name; draw with another --material-seed"
+            ),
+        }
+    }
+    let materials = listed;
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
         Ok(n) => {
