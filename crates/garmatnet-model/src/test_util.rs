@@ -1,5 +1,6 @@
 //! Shared helpers for this crate's unit tests: the CPU device, random inputs, a small model.
 
+use burn::module::{ModuleMapper, Param};
 use burn::prelude::*;
 use garmatnet_core::{BodyAnchor, POSE_DIM, SplitMix64, Vec3};
 
@@ -32,10 +33,16 @@ pub(crate) fn random_inputs(b: usize, seed: u64, dev: &Device) -> (Tensor<2>, Te
 
 pub(crate) const TEST_VERTICES: usize = 50;
 
-/// A small untrained model (n = 50, hidden 32) with non-trivial normalisers.
+/// A small untrained model (n = 50, hidden 32) with non-trivial normalisers. Its weights
+/// depend on `seed` alone: Burn's random state is global to the process and parallel tests
+/// draw from it (lazily, at a parameter's first use), so the same seed would not always give
+/// the same net if the weights came from it. Drawn here instead ([`Reseed`]) with the
+/// distributions [`GarMatNetConfig::init`] uses.
 pub(crate) fn small_model(seed: u64, rank: Option<usize>, dev: &Device) -> GarMatNetModel {
-    dev.seed(seed);
     let cfg = GarMatNetConfig::new(TEST_VERTICES, 32, 16, 32).with_output_rank(rank);
+    let mut weights = Reseed::new(seed, cfg.init_gain);
+    let fitting = cfg.init(dev).map(&mut weights);
+    let local = cfg.init(dev).map(&mut weights);
     let mut rng = SplitMix64::new(seed);
     let mut norm = || {
         let mean = (0..3 * TEST_VERTICES)
@@ -48,8 +55,8 @@ pub(crate) fn small_model(seed: u64, rank: Option<usize>, dev: &Device) -> GarMa
     };
     let (fitting_norm, local_norm) = (norm(), norm());
     GarMatNetModel {
-        fitting: cfg.init(dev),
-        local: cfg.init(dev),
+        fitting,
+        local,
         fitting_norm,
         local_norm,
         meta: ModelMeta {
@@ -60,6 +67,54 @@ pub(crate) fn small_model(seed: u64, rank: Option<usize>, dev: &Device) -> GarMa
             },
             provenance: Default::default(),
         },
+    }
+}
+
+/// Replaces every matrix of a module with draws from its own seeded generator: He-normal
+/// (`gain / sqrt(fan_in)`, `fan_in` the first dimension) with the hidden layers' gain, and
+/// gain 1 for the output layer and the low-rank basis, as [`GarMatNetConfig::init`] draws
+/// them. Vectors (biases, the basis mean) stay as initialised: zeros.
+pub(crate) struct Reseed {
+    rng: SplitMix64,
+    hidden_gain: f64,
+    module: String,
+}
+
+impl Reseed {
+    pub(crate) fn new(seed: u64, hidden_gain: f64) -> Self {
+        Self {
+            rng: SplitMix64::new(seed ^ 0x5eed),
+            hidden_gain,
+            module: String::new(),
+        }
+    }
+}
+
+impl ModuleMapper for Reseed {
+    fn enter_module(&mut self, name: &str, _container_type: &str) {
+        self.module = name.to_owned();
+    }
+
+    fn exit_module(&mut self, _name: &str, _container_type: &str) {
+        self.module.clear();
+    }
+
+    fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+        if D != 2 {
+            return param;
+        }
+        let gain = match self.module.as_str() {
+            "pose_in" | "material_in" | "merge" => self.hidden_gain,
+            _ => 1.0,
+        };
+        param.map(|t| {
+            let (shape, device) = (t.shape(), t.device());
+            let std = gain / (shape[0] as f64).sqrt();
+            let values: Vec<f32> = (0..shape.num_elements())
+                .map(|_| (std * self.rng.normal()) as f32)
+                .collect();
+            Tensor::from_data(TensorData::new(values, shape), &device)
+        })
     }
 }
 
@@ -98,4 +153,43 @@ pub(crate) fn test_predictor(model: GarMatNetModel, dev: &Device) -> Predictor {
         dev,
     )
     .unwrap()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_seed_gives_the_same_small_model_while_other_threads_draw_from_burn() {
+        let dev = cpu();
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        let (pose, material) = random_inputs(4, 1, &dev);
+        let outputs =
+            |m: &GarMatNetModel| to_vec(m.fitting.forward(pose.clone(), material.clone()));
+        let pairs = std::thread::scope(|scope| {
+            // Another test, say, initialising nets as fast as it can.
+            scope.spawn(|| {
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    let net = GarMatNetConfig::new(TEST_VERTICES, 8, 4, 8).init(&cpu());
+                    let (p, m) = random_inputs(1, 2, &cpu());
+                    let _ = net.forward(p, m);
+                }
+            });
+            let pairs: Vec<_> = (1..=8)
+                .map(|seed| {
+                    let a = outputs(&small_model(seed, None, &dev));
+                    (a, outputs(&small_model(seed, None, &dev)))
+                })
+                .collect();
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            pairs
+        });
+        for (a, b) in pairs {
+            assert_eq!(a, b);
+        }
+        assert_ne!(
+            outputs(&small_model(3, Some(8), &dev)),
+            outputs(&small_model(4, Some(8), &dev))
+        );
+    }
 }
