@@ -128,6 +128,8 @@ mod tests {
 
     #[test]
     fn displacements_of_trained_magnitude_stay_near_the_body() {
+        // Untrained nets draw their weights from Burn's global random state at first use.
+        let _serial = crate::test_util::training_lock();
         // Trained displacements spread by centimetres around the body.
         let report = stress_predictor(&predictor(0.02), 100, 7, 32).unwrap();
         assert_eq!(report.predictions, 100);
@@ -138,6 +140,7 @@ mod tests {
 
     #[test]
     fn a_model_that_throws_vertices_away_is_caught() {
+        let _serial = crate::test_util::training_lock();
         let report = stress_predictor(&predictor(5.0), 10, 7, 4).unwrap();
         assert!(!report.passed());
         assert!(report.first_far.is_some() && report.max_body_distance_m > FAR_FROM_BODY);

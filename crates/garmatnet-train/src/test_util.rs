@@ -12,9 +12,10 @@ use garmatnet_sim::{
     TemplateInfo,
 };
 
-/// Burn's random state (weight init, dropout) is global to the process, so tests that train
-/// hold this lock: otherwise parallel tests reseed it under each other and runs that must
-/// repeat bit for bit do not.
+/// Burn's random state (weight init, dropout) is global to the process, so tests that train,
+/// or run an untrained net (its weights are drawn at first use), hold this lock: otherwise
+/// parallel tests reseed or draw from it under each other and runs that must repeat bit for
+/// bit do not.
 pub(crate) fn training_lock() -> std::sync::MutexGuard<'static, ()> {
     static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     LOCK.lock()
