@@ -83,31 +83,9 @@ pub struct SimulateArgs {
     pub quiet: bool,
 }
 
-/// Parses `all` or a comma-separated list of preset names.
-pub fn parse_materials(spec: &str) -> Result<Vec<(String, Material)>> {
-    if spec.trim().eq_ignore_ascii_case("all") {
-        return Ok(presets()
-            .iter()
-            .map(|p| (p.name.to_owned(), p.material))
-            .collect());
-    }
-    let mut out = Vec::new();
-    for name in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let p = find_preset(name)?;
-        if out.iter().any(|(n, _): &(String, Material)| n == p.name) {
-            bail!("material `{}` is listed twice", p.name);
-        }
-        out.push((p.name.to_owned(), p.material));
-    }
-    if out.is_empty() {
-        bail!("--materials is empty: give `all` or preset names (see `garmatnet materials`)");
-    }
-    Ok(out)
-}
-
-/// The fabrics `--materials` names: [`parse_materials`]'s, plus fabrics of the datasets in
-/// `reuse` by name (with the ω they were made with) and `reused` for all of them, in the
-/// order given. A fabric reached twice through `all` or `reused` is listed once; one named
+/// The fabrics `--materials` (or `--random-between`) names: `all` (the presets) and preset
+/// names, plus fabrics of the datasets in `reuse` by name (with the ω they were made with)
+/// and `reused` for all of them, in the order given. A fabric reached twice through `all` or `reused` is listed once; one named
 /// twice, or two of one name with different ω, is an error.
 pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, Material)>> {
     let mut reused: Vec<(String, Material)> = Vec::new();
@@ -144,8 +122,8 @@ pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, M
         .collect();
     if items.is_empty() {
         bail!(
-            "--materials is empty: give `all`, preset names (see `garmatnet materials`), or \
-             fabrics of a --reuse dataset"
+            "no fabric named: give `all`, preset names (see `garmatnet materials`), or fabrics \
+             of a --reuse dataset"
         );
     }
     for item in items {
@@ -244,7 +222,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Some(spec) => materials.extend(mixed_materials(
             args.random_materials,
             args.material_seed,
-            &parse_materials(spec).context("--random-between")?,
+            &resolve_materials(spec, &[]).context("--random-between")?,
         )?),
         None => materials.extend(random_materials(args.random_materials, args.material_seed)?),
     }
