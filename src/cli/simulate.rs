@@ -83,6 +83,30 @@ pub struct SimulateArgs {
     pub quiet: bool,
 }
 
+/// Adds fabric `name` to `list` (name, material, named explicitly) unless it is there: a
+/// fabric reached again with the same ω is listed once; two of one name with different ω,
+/// or one named explicitly twice, is an error.
+fn add_fabric(
+    list: &mut Vec<(String, Material, bool)>,
+    name: &str,
+    material: Material,
+    explicit: bool,
+) -> Result<()> {
+    match list.iter().find(|(n, _, _)| n == name) {
+        None => list.push((name.to_owned(), material, explicit)),
+        Some((_, m, _)) if m.as_array() != material.as_array() => bail!(
+            "two fabrics are named `{name}` with different parameters ({:?} and {:?}): \
+             a material of that name with other parameters is another fabric; rename \
+             one, leave one out of --materials, or draw with another --material-seed",
+            m.as_array(),
+            material.as_array()
+        ),
+        Some((_, _, true)) if explicit => bail!("material `{name}` is listed twice"),
+        Some(_) => {}
+    }
+    Ok(())
+}
+
 /// The fabrics `--materials` (or `--random-between`) names: `all` (the presets) and preset
 /// names, plus fabrics of the datasets in `reuse` by name (with the ω they were made with)
 /// and `reused` for all of them, in the order given. A fabric reached twice through `all` or `reused` is listed once; one named
@@ -98,22 +122,9 @@ pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, M
             reused.push((entry.name.clone(), material));
         }
     }
-    // (name, material, named explicitly)
     let mut out: Vec<(String, Material, bool)> = Vec::new();
-    let mut add = |name: &str, material: Material, explicit: bool| -> Result<()> {
-        match out.iter().find(|(n, _, _)| n == name) {
-            None => out.push((name.to_owned(), material, explicit)),
-            Some((_, m, _)) if m.as_array() != material.as_array() => bail!(
-                "two fabrics are named `{name}` with different parameters ({:?} and {:?}): \
-                 a material of that name with other parameters is another fabric; rename \
-                 one, or leave one out of --materials",
-                m.as_array(),
-                material.as_array()
-            ),
-            Some((_, _, true)) if explicit => bail!("material `{name}` is listed twice"),
-            Some(_) => {}
-        }
-        Ok(())
+    let mut add = |name: &str, material: Material, explicit: bool| {
+        add_fabric(&mut out, name, material, explicit)
     };
     let items: Vec<&str> = spec
         .split(',')
@@ -214,31 +225,30 @@ fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
 
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    let mut materials = resolve_materials(&args.materials, &args.reuse)?;
-    match &args.random_between {
+    let mut listed: Vec<(String, Material, bool)> =
+        resolve_materials(&args.materials, &args.reuse)?
+            .into_iter()
+            .map(|(name, material)| (name, material, true))
+            .collect();
+    let drawn = match &args.random_between {
         Some(_) if args.random_materials == 0 => {
             bail!("--random-between says where to draw --random-materials N: give N too")
         }
-        Some(spec) => materials.extend(mixed_materials(
+        Some(spec) => mixed_materials(
             args.random_materials,
             args.material_seed,
             &resolve_materials(spec, &[]).context("--random-between")?,
-        )?),
-        None => materials.extend(random_materials(args.random_materials, args.material_seed)?),
-    }
+        )?,
+        None => random_materials(args.random_materials, args.material_seed)?,
+    };
     // A drawn fabric that `reused` already brought in (same name and ω) is listed once.
-    let mut listed: Vec<(String, Material)> = Vec::with_capacity(materials.len());
-    for (name, material) in materials {
-        match listed.iter().find(|(n, _)| *n == name) {
-            None => listed.push((name, material)),
-            Some((_, m)) if m.as_array() == material.as_array() => {}
-            Some(_) => bail!(
-                "the drawn fabric `{name}` has other parameters than the --materials fabric of \
-                 that name; draw with another --material-seed"
-            ),
-        }
+    for (name, material) in drawn {
+        add_fabric(&mut listed, &name, material, false)?;
     }
-    let materials = listed;
+    let materials: Vec<(String, Material)> = listed
+        .into_iter()
+        .map(|(name, material, _)| (name, material))
+        .collect();
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
         Ok(n) => {

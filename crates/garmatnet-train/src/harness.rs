@@ -52,9 +52,10 @@ pub struct BenchConfig {
     /// an application keeps one (only the step is timed). Empty: none.
     pub sim_frame_budgets: Vec<usize>,
     /// Newton-iteration budgets to polish the main model's predictions with, on each device
-    /// (the solver runs on the CPU): each sample's prediction handed to the simulator on its posed body ([`FrameStepper`],
-    /// friction measured from the prediction) and given at most this many iterations; the
-    /// time covers the prediction, making the solver and the iterations. Empty: none.
+    /// (the solver runs on the CPU): each sample's prediction handed to the simulator on its
+    /// posed body ([`FrameStepper`], friction measured from the prediction) and given at most
+    /// this many iterations; the time covers the prediction, making the solver and the
+    /// iterations. Empty: none.
     pub polish_budgets: Vec<usize>,
     /// Batch size of the batched rows (the samples repeated to fill it).
     pub batch: usize,
