@@ -48,9 +48,25 @@ enum Command {
     SweepAlpha(cli::train::SweepAlphaArgs),
 }
 
-fn main() -> anyhow::Result<()> {
+/// Runs the command; a closed standard output (`garmatnet materials | head -3`) ends it
+/// quietly and successfully, as it does Unix tools, and any other error is printed as
+/// `Error: …` with its causes and exits 1.
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match &cli.command {
+    match run(&cli.command) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if e.is::<cli::StdoutClosed>() => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            use std::io::Write as _;
+            // Not `eprintln!`, which panics when standard error is closed too.
+            let _ = writeln!(std::io::stderr(), "Error: {e:?}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: &Command) -> anyhow::Result<()> {
+    match command {
         Command::Template(args) => cli::template::run(args),
         Command::Body(args) => cli::body::run(args),
         Command::Drape(args) => cli::drape::run(args),

@@ -6,6 +6,27 @@ fn garmatnet() -> Command {
     Command::new(env!("CARGO_BIN_EXE_garmatnet"))
 }
 
+/// A reader that stops early (`garmatnet materials | head -3`) ends the command quietly, as it
+/// does Unix tools: exit 0 and no panic. The pipe's reading end is closed before the command
+/// starts, so its first line meets a broken pipe every time.
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() -> anyhow::Result<()> {
+    let (reader, writer) = std::io::pipe()?;
+    drop(reader);
+    let out = garmatnet().arg("materials").stdout(writer).output()?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(stderr.is_empty(), "{stderr}");
+    // Errors other than a closed pipe still fail, with their message.
+    let out = garmatnet()
+        .args(["materials", "--model", "no-such-model.safetensors"])
+        .output()?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.starts_with("Error: "), "{stderr}");
+    Ok(())
+}
+
 #[test]
 fn template_writes_a_readable_obj_for_each_resolution() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;

@@ -93,11 +93,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         out_dir: args.out.clone(),
     };
     let report = run_bench(&inputs, &config)?;
-    print!("{}", garmatnet::train::harness::markdown(&report));
-    println!(
+    crate::cli::write_stdout(format_args!(
+        "{}",
+        garmatnet::train::harness::markdown(&report)
+    ))?;
+    outln!(
         "wrote {0}/bench.json, {0}/bench.md and {0}/pareto.png",
         args.out.display()
-    );
+    )?;
     Ok(())
 }
 

@@ -31,11 +31,11 @@ pub fn run(args: &BodyArgs) -> Result<()> {
     }
     let mesh = CapsuleBody::smpl_neutral().pose(&pose).mesh();
     write_obj(&args.out, &mesh).with_context(|| format!("writing {}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {} ({} vertices, {} triangles)",
         args.out.display(),
         mesh.vertex_count(),
         mesh.face_count()
-    );
+    )?;
     Ok(())
 }

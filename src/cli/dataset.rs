@@ -54,7 +54,7 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
     match command {
         DatasetCommand::Check { dir } => {
             let report = garmatnet::sim::check(dir)?;
-            println!("{report}");
+            outln!("{report}")?;
             if !report.is_ok() {
                 bail!("{} has problems (listed above)", dir.display());
             }
@@ -94,7 +94,7 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
                 .spec;
             let report = garmatnet::sim::merge_shards(into, sources, spec)?;
             let merged = garmatnet::sim::Manifest::read(into)?;
-            println!(
+            outln!(
                 "merged {} samples into {} ({} copied, {} completed from slim samples); it holds \
                  {} of {} materials x {} poses",
                 report.copied + report.derived,
@@ -104,7 +104,7 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
                 merged.samples.len(),
                 merged.spec.materials.len(),
                 merged.spec.poses.len()
-            );
+            )?;
             Ok(())
         }
     }

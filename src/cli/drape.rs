@@ -129,10 +129,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         }
     }
     if let Some((fabric, distance)) = predictor.nearest_training_fabric(&material) {
-        println!(
+        outln!(
             "nearest training fabric: {} ({distance:.3} away in normalised ω)",
             fabric.name
-        );
+        )?;
         if distance >= FAR_FROM_TRAINING {
             eprintln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
@@ -152,12 +152,12 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     let started = Instant::now();
     let mesh = predictor.predict(&pose, &material, args.detail)?;
     let predict_ms = started.elapsed().as_secs_f64() * 1e3;
-    println!(
+    outln!(
         "predicted {} vertices ({} detail) in {predict_ms:.2} ms with {}",
         mesh.vertices.len(),
         args.detail,
         model_path.display()
-    );
+    )?;
     let garment = mesh.into_tri_mesh()?;
     let body = predictor
         .body()
@@ -172,7 +172,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     for out in &args.out {
         view.write(out)
             .with_context(|| format!("writing {}", out.display()))?;
-        println!("wrote {}", out.display());
+        outln!("wrote {}", out.display())?;
     }
     if args.compare {
         let body_model = CapsuleBody::smpl_neutral();
@@ -187,7 +187,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         let errors = vertex_errors_mm(&garment.vertices, &sim.vertices)?;
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
         let max = errors.iter().copied().fold(0.0, f64::max);
-        println!(
+        outln!(
             "simulator: {:.0} ms{}; prediction error mean {mean:.2} mm, max {max:.2} mm; \
              speed-up {:.0}x",
             sim.wall_ms,
@@ -197,7 +197,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                 " (not converged)"
             },
             sim.wall_ms / predict_ms
-        );
+        )?;
         let truth = TriMesh::new(sim.vertices, garment.faces.clone())?;
         for out in args
             .out
@@ -207,10 +207,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             let path = compare_path(out);
             let image = comparison_image(&body, &garment, &truth, &errors, 20.0)?;
             garmatnet::core::render::save_png(&path, &image)?;
-            println!(
+            outln!(
                 "wrote {} (prediction | simulation | error, red = 20 mm)",
                 path.display()
-            );
+            )?;
         }
     }
     Ok(())
@@ -249,14 +249,14 @@ fn write_sequence(
         .map(GarmentMesh::into_tri_mesh)
         .collect::<Result<Vec<_>, _>>()?;
     let (first, last) = (sequence[0].0, sequence[sequence.len() - 1].0);
-    println!(
+    outln!(
         "predicted frames {first}..={last} ({} frames, {} detail) in {total_ms:.1} ms, \
          {:.2} ms a frame, with {}",
         sequence.len(),
         args.detail,
         total_ms / sequence.len() as f64,
         model_path.display()
-    );
+    )?;
     let body = predictor.body().context("the predictor has no body")?;
     let frames: Vec<usize> = sequence.iter().map(|(f, _)| *f).collect();
     let simulated = if args.compare {
@@ -293,10 +293,10 @@ fn compare_sequence(
     let template = Garment::tshirt(predictor.model().meta.template.resolution, body)?;
     // From the rest drape to the first frame, then frame to frame, as datasets are made: the
     // drapes depend on that path (README, "The ground truth's noise floor").
-    println!(
+    outln!(
         "simulating {} frames (rest pose, then each frame in turn; seconds a frame) ...",
         frames.len()
-    );
+    )?;
     let drapes = simulate_sequence(
         &template,
         body,
@@ -309,7 +309,7 @@ fn compare_sequence(
     for ((drape, garment), &frame) in drapes.into_iter().zip(garments).zip(frames) {
         let errors = vertex_errors_mm(&garment.vertices, &drape.vertices)?;
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        println!(
+        outln!(
             "  frame {frame}: simulated in {:.0} ms{}, prediction error mean {mean:.2} mm",
             drape.wall_ms,
             if drape.converged {
@@ -317,7 +317,7 @@ fn compare_sequence(
             } else {
                 " (not converged)"
             }
-        );
+        )?;
         sum += mean;
         if mean > worst.0 {
             worst = (mean, frame);
@@ -327,7 +327,7 @@ fn compare_sequence(
         simulated.push(TriMesh::new(drape.vertices, garment.faces.clone())?);
     }
     let n = frames.len() as f64;
-    println!(
+    outln!(
         "simulator: {:.0} ms a frame{}; prediction error mean {:.2} mm over the frames \
          (worst frame {}: {:.2} mm); speed-up {:.0}x",
         sim_ms / n,
@@ -340,6 +340,6 @@ fn compare_sequence(
         worst.1,
         worst.0,
         sim_ms / predict_ms
-    );
+    )?;
     Ok(simulated)
 }

@@ -74,11 +74,11 @@ pub fn run(args: &EnsembleArgs) -> Result<()> {
         }
     };
     let size = std::fs::metadata(&args.out).map(|m| m.len()).unwrap_or(0);
-    println!(
+    outln!(
         "wrote {} ({} members, {:.1} MB){split_note}",
         args.out.display(),
         members.len(),
         size as f64 / 1e6,
-    );
+    )?;
     Ok(())
 }

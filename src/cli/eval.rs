@@ -53,16 +53,20 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     } else {
         "target materials x held-out poses"
     };
-    println!(
+    outln!(
         "GarMatNet ({set}): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
-        g.fitting_mm, g.local_mm, g.whole_mm
-    );
+        g.fitting_mm,
+        g.local_mm,
+        g.whole_mm
+    )?;
     if let Some(b) = &report.baseline {
-        println!(
+        outln!(
             "baseline:                                      fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
-            b.fitting_mm, b.local_mm, b.whole_mm
-        );
+            b.fitting_mm,
+            b.local_mm,
+            b.whole_mm
+        )?;
     }
-    println!("report written to {}", args.report.display());
+    outln!("report written to {}", args.report.display())?;
     Ok(())
 }

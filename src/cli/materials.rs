@@ -42,14 +42,27 @@ pub fn run(args: &MaterialsArgs) -> Result<()> {
     } else {
         ""
     };
-    println!(
+    outln!(
         "{:<24} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8}   {:<32}{nearest_column}",
-        "name", "struct V", "struct H", "flex V", "flex H", "shear", "density", "normalised ω"
-    );
-    println!(
+        "name",
+        "struct V",
+        "struct H",
+        "flex V",
+        "flex H",
+        "shear",
+        "density",
+        "normalised ω"
+    )?;
+    outln!(
         "{:<24} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8}",
-        "", "N/m", "N/m", "N/m", "N/m", "N/m", "kg/m²"
-    );
+        "",
+        "N/m",
+        "N/m",
+        "N/m",
+        "N/m",
+        "N/m",
+        "kg/m²"
+    )?;
     for p in presets() {
         let m = p.material;
         let n = m.to_normalized();
@@ -71,7 +84,7 @@ pub fn run(args: &MaterialsArgs) -> Result<()> {
                 format!("   {} ({d:.3}){far}", f.name)
             }
         };
-        println!(
+        outln!(
             "{:<24} {:>9.1} {:>9.1} {:>9.2} {:>9.2} {:>9.1} {:>8.3}   {omega:<32}{near}",
             p.name,
             m.structural_vertical,
@@ -80,7 +93,7 @@ pub fn run(args: &MaterialsArgs) -> Result<()> {
             m.flexion_horizontal,
             m.shear,
             m.density,
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,5 +1,15 @@
 //! The `garmatnet` command line: one file per subcommand.
 
+/// `println!` for the commands' results, which reports a closed standard output as
+/// [`StdoutClosed`] instead of panicking (`garmatnet materials | head -3`); `main` then
+/// ends quietly. Other write errors are returned as they are. Defined before the `mod`
+/// lines below, so every subcommand's module can use it.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 pub mod bench;
 pub mod body;
 pub mod dataset;
@@ -11,6 +21,32 @@ pub mod simulate;
 pub mod stress;
 pub mod template;
 pub mod train;
+
+/// The reader of standard output went away (a pipe closed early, as `head` does): not a
+/// failure of the command, so `main` exits successfully and prints nothing more.
+#[derive(Debug)]
+pub struct StdoutClosed;
+
+impl std::fmt::Display for StdoutClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("standard output was closed")
+    }
+}
+
+impl std::error::Error for StdoutClosed {}
+
+/// Writes `text` to standard output; [`outln!`]'s body.
+///
+/// # Errors
+/// [`StdoutClosed`] when the reader has gone, any other write error as it is.
+pub fn write_stdout(text: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    match std::io::stdout().lock().write_fmt(text) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(anyhow::Error::new(e).context("writing to standard output")),
+    }
+}
 
 /// Writes `view` to each of `outs` and says what was written: one animation file, with
 /// `what` (e.g. the fabric and frames) and its frame rate, or a run of numbered files.
@@ -28,17 +64,17 @@ pub fn write_sequence_outputs(
             .write(out)
             .with_context(|| format!("writing {}", out.display()))?;
         match written.as_slice() {
-            [one] if one == out => println!(
+            [one] if one == out => outln!(
                 "wrote {} ({what} at {} frames a second)",
                 out.display(),
                 view.fps
-            ),
-            _ => println!(
+            )?,
+            _ => outln!(
                 "wrote {} files ({what}), {} … {}",
                 written.len(),
                 written[0].display(),
                 written[written.len() - 1].display()
-            ),
+            )?,
         }
     }
     Ok(())

@@ -354,7 +354,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         }
         other => other?,
     };
-    println!(
+    outln!(
         "{}: wrote {} samples ({} already done, {} of them copied from --reuse; {} in this shard), {} not converged; {:.0} ms per sample per worker, {:.1} s in all",
         args.out.display(),
         report.written,
@@ -364,6 +364,6 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         report.not_converged,
         report.mean_sample_ms,
         report.wall_time_s
-    );
+    )?;
     Ok(())
 }

@@ -34,10 +34,12 @@ pub fn run(args: &StressArgs) -> Result<()> {
     let path = args.model.clone().unwrap_or_else(default_model_path);
     let predictor = Predictor::from_file(&path, &device)?;
     let report = stress_predictor(&predictor, args.count, args.seed, args.batch)?;
-    println!(
+    outln!(
         "{} predictions in {:.1} s: all finite; farthest vertex {:.3} m from the body",
-        report.predictions, report.seconds, report.max_body_distance_m
-    );
+        report.predictions,
+        report.seconds,
+        report.max_body_distance_m
+    )?;
     if !report.passed() {
         bail!(
             "{} predictions put a vertex more than {FAR_FROM_BODY} m from the body; the first: \

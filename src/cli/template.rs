@@ -22,7 +22,7 @@ pub fn run(args: &TemplateArgs) -> Result<()> {
     let body = CapsuleBody::smpl_neutral();
     let shirt = Garment::tshirt(args.resolution, &body)?;
     write_obj(&args.out, &shirt.rest).with_context(|| format!("writing {}", args.out.display()))?;
-    println!(
+    outln!(
         "wrote {} ({} resolution: {} vertices, {} triangles, {} springs, template hash {:016x})",
         args.out.display(),
         args.resolution,
@@ -30,6 +30,6 @@ pub fn run(args: &TemplateArgs) -> Result<()> {
         shirt.rest.face_count(),
         shirt.springs.len(),
         shirt.template_hash()
-    );
+    )?;
     Ok(())
 }

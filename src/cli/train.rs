@@ -246,7 +246,7 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
         stop_after_epochs: None,
     };
     let summary = train(&args.options.data, &args.out, &config, &options)?;
-    println!("{}", serde_json::to_string_pretty(&summary)?);
+    outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     Ok(())
 }
 
@@ -269,11 +269,11 @@ pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
             })
         })
         .collect();
-    println!("{}", serde_json::to_string_pretty(&materials)?);
-    println!(
+    outln!("{}", serde_json::to_string_pretty(&materials)?)?;
+    outln!(
         "baseline written to {}",
         args.out.join(BASELINE_MANIFEST).display()
-    );
+    )?;
     Ok(())
 }
 
@@ -286,7 +286,7 @@ pub fn run_sweep_alpha(args: &SweepAlphaArgs) -> Result<()> {
         ..EvalConfig::default()
     };
     let rows = sweep_alpha(&args.options.data, &args.out, &alphas, &config, &eval)?;
-    println!("{}", serde_json::to_string_pretty(&rows)?);
+    outln!("{}", serde_json::to_string_pretty(&rows)?)?;
     Ok(())
 }
 
