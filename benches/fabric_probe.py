@@ -22,13 +22,14 @@ names = [x["name"] for x in mats]
 omega = np.array([x["omega_normalized"] for x in mats])
 P = len(m["poses"])
 M = len(names)
-complete = [mi for mi in range(M)
-            if all(os.path.exists(os.path.join(d, "samples", f"m{mi:03d}_p{p:04d}", "stats.json")) for p in range(P))]
+# The manifest lists the finished samples; a fabric counts once all its poses are there.
+stems = {(r["material"], r["pose"]): r["stem"] for r in m["samples"]}
+complete = [mi for mi in range(M) if all((mi, p) in stems for p in range(P))]
 print(f"{len(complete)} of {M} fabrics complete")
 L = np.zeros((M, P, m["template"]["vertex_count"], 3), np.float32)
 for mi in complete:
     for p in range(P):
-        s = os.path.join(d, "samples", f"m{mi:03d}_p{p:04d}")
+        s = os.path.join(d, "samples", stems[(mi, p)])
         L[mi, p] = np.load(os.path.join(s, "smoothed.npy")) - np.load(os.path.join(s, "body.npy"))
 
 def err(a, b):
@@ -103,12 +104,8 @@ for label, train in (("the other presets", presets_train), ("all non-targets", a
     keys = next(iter(rows.values())).keys()
     print("  MEAN " + "  ".join(f"{k} {np.mean([rows[t][k] for t in targets]):.2f}" for k in keys))
 for label, pool in (("presets", presets_train), ("all non-targets", all_train)):
-  print(f"== leave-one-out over {label} ({len(pool)}; train = the others, targets excluded)")
-  rows = []
-  for t in pool:
-    tr = [i for i in pool if i != t]
-    r, _, _ = evaluate(t, tr)
-    rows.append(r)
-  keys = rows[0].keys()
-  print("  MEAN " + "  ".join(f"{k} {np.mean([r[k] for r in rows]):.2f}" for k in keys))
-  print("  MEDIAN " + "  ".join(f"{k} {np.median([r[k] for r in rows]):.2f}" for k in keys))
+    print(f"== leave-one-out over {label} ({len(pool)}; train = the others, targets excluded)")
+    rows = [evaluate(t, [i for i in pool if i != t])[0] for t in pool]
+    keys = rows[0].keys()
+    print("  MEAN " + "  ".join(f"{k} {np.mean([r[k] for r in rows]):.2f}" for k in keys))
+    print("  MEDIAN " + "  ".join(f"{k} {np.median([r[k] for r in rows]):.2f}" for k in keys))
