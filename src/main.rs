@@ -34,6 +34,12 @@ enum Command {
     Train(cli::train::TrainArgs),
     /// Train the TailorNet-style baseline (one pose-only model per target material).
     TrainBaseline(cli::train::TrainBaselineArgs),
+    /// Calibrate a fabric for a model with one simulated drape (JSON for `drape
+    /// --calibration`).
+    Calibrate(cli::calibrate::CalibrateArgs),
+    /// Measure fabric calibration on a dataset: each fabric calibrated at one pose, its
+    /// other poses predicted with and without it.
+    EvalCalibration(cli::calibrate::EvalCalibrationArgs),
     /// Average models trained with different seeds into one (an ensemble in one model file).
     Ensemble(cli::ensemble::EnsembleArgs),
     /// Evaluate a model on its held-out split and write the report.
@@ -75,6 +81,8 @@ fn run(command: &Command) -> anyhow::Result<()> {
         Command::Dataset(command) => cli::dataset::run(command),
         Command::Train(args) => cli::train::run_train(args),
         Command::TrainBaseline(args) => cli::train::run_train_baseline(args),
+        Command::Calibrate(args) => cli::calibrate::run(args),
+        Command::EvalCalibration(args) => cli::calibrate::run_eval(args),
         Command::Ensemble(args) => cli::ensemble::run(args),
         Command::Eval(args) => cli::eval::run(args),
         Command::SweepAlpha(args) => cli::train::run_sweep_alpha(args),

@@ -7,8 +7,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::core::read_pose_frame_rate;
 use garmatnet::model::{
-    Detail, FAR_FROM_TRAINING, Predictor, PushOut, SEQUENCE_BATCH, default_model_path,
-    select_device,
+    Detail, FAR_FROM_TRAINING, FabricCalibration, Predictor, PushOut, SEQUENCE_BATCH,
+    default_model_path, select_device,
 };
 use garmatnet::sim::SequenceSettings;
 use garmatnet::train::{
@@ -31,6 +31,10 @@ pub struct DrapeArgs {
     /// --material).
     #[arg(long)]
     pub omega: Option<String>,
+    /// A calibrated fabric from `garmatnet calibrate` (JSON) instead of --material or
+    /// --omega: the model's training fabrics blended to match the fabric's simulated drape.
+    #[arg(long, conflicts_with_all = ["material", "omega"])]
+    pub calibration: Option<PathBuf>,
     /// A frame of the built-in motion sequence, or a pose file (.json, .npz, .npy).
     /// Default: the rest T-pose.
     #[arg(long)]
@@ -76,11 +80,21 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     for out in &args.out {
         OutputFormat::from_path(out)?;
     }
-    let material = resolve_material(
-        args.material.as_deref(),
-        args.omega.as_deref(),
-        "Cotton Poplin",
-    )?;
+    let (material, fabric) = match &args.calibration {
+        Some(path) => {
+            let calibration = FabricCalibration::load(path)?;
+            let material = Material::from_normalized(calibration.omega)?;
+            (material, Fabric::Calibrated(Box::new(calibration)))
+        }
+        None => {
+            let material = resolve_material(
+                args.material.as_deref(),
+                args.omega.as_deref(),
+                "Cotton Poplin",
+            )?;
+            (material.clone(), Fabric::Omega(material))
+        }
+    };
     if let Some(fps) = args.fps
         && !(fps.is_finite() && fps > 0.0)
     {
@@ -116,6 +130,24 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             ..PushOut::default()
         });
     }
+    if let Fabric::Calibrated(calibration) = &fabric {
+        calibration.check_for(&predictor).with_context(|| {
+            format!(
+                "{} with {}",
+                args.calibration
+                    .as_ref()
+                    .map_or_else(String::new, |p| p.display().to_string()),
+                model_path.display()
+            )
+        })?;
+        outln!(
+            "calibrated fabric {}: at its reference pose the nets erred {:.2} mm, the blend \
+             {:.2} mm",
+            calibration.name,
+            calibration.reference_error_mm,
+            calibration.calibrated_reference_error_mm
+        )?;
+    }
     if let Some(range) = predictor.material_range() {
         let outside = range.outside(&material.to_normalized());
         if !outside.is_empty() {
@@ -128,10 +160,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             );
         }
     }
-    if let Some((fabric, distance)) = predictor.nearest_training_fabric(&material) {
+    if let Some((nearest, distance)) = predictor.nearest_training_fabric(&material) {
         outln!(
             "nearest training fabric: {} ({distance:.3} away in normalised ω)",
-            fabric.name
+            nearest.name
         )?;
         if distance >= FAR_FROM_TRAINING {
             eprintln!(
@@ -140,17 +172,21 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                  erred about twice as much as nearer ones (README, \"The typed API\"): \
                  expect a larger error",
                 model_path.display(),
-                fabric.name
+                nearest.name
             );
         }
     }
     if let Some(sequence) = sequence {
-        return write_sequence(args, &predictor, &model_path, &material, &sequence);
+        return write_sequence(args, &predictor, &model_path, &material, &fabric, &sequence);
     }
+    let poses = std::slice::from_ref(&pose);
     // The first call warms the backend up; time the second.
-    predictor.predict(&pose, &material, args.detail)?;
+    fabric.predict(&predictor, poses, args.detail)?;
     let started = Instant::now();
-    let mesh = predictor.predict(&pose, &material, args.detail)?;
+    let mesh = fabric
+        .predict(&predictor, poses, args.detail)?
+        .pop()
+        .context("the predictor returned no garment")?;
     let predict_ms = started.elapsed().as_secs_f64() * 1e3;
     outln!(
         "predicted {} vertices ({} detail) in {predict_ms:.2} ms with {}",
@@ -219,6 +255,30 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
 /// The frame rate of a `--frames` animation when neither `--fps` nor the pose file gives one.
 const DEFAULT_FPS: f64 = 30.0;
 
+/// What the nets drape: a fabric by its ω, or a calibrated fabric (`--calibration`).
+enum Fabric {
+    Omega(Material),
+    Calibrated(Box<FabricCalibration>),
+}
+
+impl Fabric {
+    /// The garments at `poses`, each pushed out of its posed body as `Predictor::predict`
+    /// pushes one.
+    fn predict(
+        &self,
+        predictor: &Predictor,
+        poses: &[Pose],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        Ok(match self {
+            Fabric::Omega(material) => predictor.predict_sequence(poses, material, detail)?,
+            Fabric::Calibrated(calibration) => {
+                predictor.predict_calibrated_sequence(poses, calibration, detail)?
+            }
+        })
+    }
+}
+
 /// Predicts `sequence` (frame number, pose) in batches, pushed out of the body as a single
 /// prediction is, and writes every output.
 fn write_sequence(
@@ -226,6 +286,7 @@ fn write_sequence(
     predictor: &Predictor,
     model_path: &std::path::Path,
     material: &Material,
+    fabric: &Fabric,
     sequence: &[(usize, Pose)],
 ) -> Result<()> {
     // Read before any work, so a malformed rate in the file stops the run at once.
@@ -236,13 +297,13 @@ fn write_sequence(
     };
     let poses: Vec<Pose> = sequence.iter().map(|(_, p)| p.clone()).collect();
     // A first batch warms the backend up, so the timing is the steady state's.
-    predictor.predict_sequence(
+    fabric.predict(
+        predictor,
         &poses[..poses.len().min(SEQUENCE_BATCH)],
-        material,
         args.detail,
     )?;
     let started = Instant::now();
-    let predicted = predictor.predict_sequence(&poses, material, args.detail)?;
+    let predicted = fabric.predict(predictor, &poses, args.detail)?;
     let total_ms = started.elapsed().as_secs_f64() * 1e3;
     let garments = predicted
         .into_iter()

@@ -12,6 +12,7 @@ macro_rules! outln {
 
 pub mod bench;
 pub mod body;
+pub mod calibrate;
 pub mod dataset;
 pub mod drape;
 pub mod ensemble;

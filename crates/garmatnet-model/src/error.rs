@@ -112,6 +112,13 @@ pub enum Error {
     #[error("device unavailable: {0}")]
     DeviceUnavailable(String),
 
+    /// A fabric calibration cannot be fitted or does not belong to the model it is used
+    /// with (another template or other training fabrics, a version this build does not
+    /// read, weights that are not finite or do not sum to one). The message says what to
+    /// do; usually: calibrate the fabric again with this model.
+    #[error("fabric calibration: {0}")]
+    Calibration(String),
+
     /// A scene operation named a character that is not in the scene. Insert it first.
     #[error("no character with id {0} in the scene; insert it with Scene::insert first")]
     UnknownCharacter(u64),

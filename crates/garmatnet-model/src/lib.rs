@@ -8,6 +8,8 @@
 //!   wider model of the same architecture and file format.
 //! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out()`] keeps
 //!   garments outside the body.
+//! - [`FabricCalibration`] ([`calibration`]): a fabric described by one simulated drape as
+//!   a blend of the model's training fabrics, for fabrics far from them.
 //!
 //! Backends are chosen at run time with [`select_device`]; the CPU (`flex`) is always there,
 //! the GPU with the `wgpu` feature.
@@ -26,6 +28,7 @@
 //! ```
 
 pub mod baseline_net;
+pub mod calibration;
 pub mod default_model;
 pub mod device;
 pub mod ensemble;
@@ -43,6 +46,9 @@ mod tensor_util;
 mod test_util;
 
 pub use baseline_net::{BaselineNet, BaselineNetConfig};
+pub use calibration::{
+    CALIBRATION_VERSION, CalibrationSettings, DEFAULT_RIDGE, FabricCalibration, WeightedFabric,
+};
 pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;
 pub use error::{Error, Result};

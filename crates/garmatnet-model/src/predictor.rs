@@ -476,14 +476,24 @@ impl Predictor {
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
         let items: Vec<_> = poses.iter().map(|p| (p.clone(), *material)).collect();
-        let mut meshes = self.predict_batch(&items, detail)?;
+        let meshes = self.predict_batch(&items, detail)?;
+        Ok(self.pushed_out(meshes, poses))
+    }
+
+    /// `meshes`, each pushed out of the body posed at its pose in `poses`, when the
+    /// predictor knows the body and push-out is enabled.
+    pub(crate) fn pushed_out(
+        &self,
+        mut meshes: Vec<GarmentMesh>,
+        poses: &[Pose],
+    ) -> Vec<GarmentMesh> {
         if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
             for (mesh, pose) in meshes.iter_mut().zip(poses) {
                 // As in `predict`, the report is dropped: `predict_on_body` returns it.
                 let _ = push_out(&mut mesh.vertices, &body.pose(pose), self.push_out.epsilon);
             }
         }
-        Ok(meshes)
+        meshes
     }
 
     /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;

@@ -9,6 +9,8 @@
 //! - [`evaluate`]: Table 2's errors, per-pose plots (Figs. 7–8), heat maps (Figs. 11–12),
 //!   push-out, timing and sizes, written as a [`Report`].
 //! - [`sweep_alpha`]: Table 3.
+//! - [`evaluate_calibration`]: how much calibrating each fabric with one of its drapes
+//!   ([`garmatnet_model::calibration`]) helps at its other poses.
 //!
 //! Every run is described by a serde configuration, so a CLI or a JSON file can set it:
 //!
@@ -26,6 +28,7 @@
 pub mod alpha_sweep;
 pub mod baseline;
 mod bench_report;
+pub mod calibration_eval;
 pub mod checkpoint;
 pub mod dataset_loader;
 pub mod error;
@@ -51,6 +54,7 @@ pub use baseline::{
     BASELINE_MANIFEST, BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest,
     BaselineMaterial, BaselineMaterialEntry, train_baseline,
 };
+pub use calibration_eval::{CalibrationEval, CalibrationRow, evaluate_calibration};
 pub use checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
 pub use dataset_loader::{
     BODY_POINT_TOLERANCE, LoadedSamples, SampleKey, SampleTruth, TrainingDataset,

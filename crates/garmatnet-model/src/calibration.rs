@@ -1,0 +1,720 @@
+//! A fabric described by one simulated drape instead of its ω alone.
+//!
+//! The nets take a fabric as its 6-d ω, and between their training fabrics they interpolate
+//! in ω, which says little about how a fabric drapes: on Table 2's unseen fabrics most of
+//! the error is this fabric term (README, "The shipped model and Table 2"). One simulated
+//! drape of the fabric says more. A [`FabricCalibration`] describes the fabric as a blend of
+//! the nets' prediction for its own ω and their predictions for the model's training
+//! fabrics, with weights fitted once so that the blend reproduces one simulated drape `D` at
+//! one reference pose θ₀; the same weights then serve at every pose.
+//!
+//! With `X_f(θ)` the predicted garment (both nets, before push-out) for fabric `f`, `X_*` for
+//! the fabric's own ω and `A` the matrix of columns `X_f(θ₀) − X_*(θ₀)`, the weights `v`
+//! solve the ridge problem
+//!
+//! ```text
+//! min_v ‖X_*(θ₀) + A v − D‖² + λ s ‖v‖²,    s = trace(AᵀA) / F   (F training fabrics)
+//! ```
+//!
+//! so `λ` ([`CalibrationSettings::ridge`]) is free of the drape's scale, and a large `λ` gives
+//! back the uncalibrated nets. The fabric's weights are `1 − Σ v` for its own ω and `v_f`
+//! for the training fabrics. They sum to one, and for a fixed pose the garment is an affine
+//! function of the nets' last hidden activation (output layer, low-rank basis, normaliser
+//! and displacement frame are all affine), so the blend of the F + 1 predictions is the
+//! prediction from the same blend of hidden activations: a calibrated frame runs the hidden
+//! layers on F + 1 rows and the output layer on one.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use garmatnet_core::{Material, Pose, Vec3};
+//! use garmatnet_model::{CalibrationSettings, Detail, Predictor, select_device};
+//!
+//! let predictor = Predictor::default_tshirt(&select_device("cpu")?)?;
+//! let fabric = Material::preset("Velvet")?;
+//! # let simulated_drape: Vec<Vec3> = Vec::new();
+//! // `simulated_drape`: the solver's drape of this fabric at the rest pose (the
+//! // `garmatnet calibrate` command makes it and writes the calibration as JSON).
+//! let calibration = predictor.calibrate(
+//!     "Velvet",
+//!     &fabric,
+//!     &Pose::zero(),
+//!     &simulated_drape,
+//!     &CalibrationSettings::default(),
+//! )?;
+//! let mesh = predictor.predict_calibrated(&Pose::zero(), &calibration, Detail::Full)?;
+//! # let _ = mesh;
+//! # Ok(())
+//! # }
+//! ```
+
+use std::path::Path;
+
+use burn::prelude::*;
+use garmatnet_core::{Material, Pose, Real, Vec3, error::ensure_finite};
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::garmatnet_net::{GarMatNet, MATERIAL_DIM};
+use crate::material_range::TrainingFabric;
+use crate::predictor::{Detail, GarmentMesh, Predictor, validate_inputs};
+use crate::tensor_util::{matrix, to_f32};
+
+/// The calibration file format version this build writes and reads.
+pub const CALIBRATION_VERSION: u32 = 1;
+
+/// The ridge weight λ of [`CalibrationSettings::default`]; see the module docs for the
+/// problem it weights and EXPERIMENTS.md ("A fabric calibrated with one simulated drape")
+/// for how it was chosen.
+pub const DEFAULT_RIDGE: Real = 0.1;
+
+/// How [`Predictor::calibrate`] fits a fabric's weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CalibrationSettings {
+    /// The ridge weight λ (dimensionless, > 0): larger keeps the weights nearer the
+    /// uncalibrated nets (own ω weight 1, every training fabric 0).
+    pub ridge: Real,
+}
+
+impl Default for CalibrationSettings {
+    fn default() -> Self {
+        Self {
+            ridge: DEFAULT_RIDGE,
+        }
+    }
+}
+
+impl CalibrationSettings {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (out of range) if `ridge` is not a finite number > 0.
+    pub fn validate(&self) -> Result<()> {
+        if self.ridge.is_finite() && self.ridge > 0.0 {
+            Ok(())
+        } else {
+            Err(garmatnet_core::Error::OutOfRange {
+                what: "calibration ridge weight".into(),
+                value: self.ridge,
+                min: f64::MIN_POSITIVE,
+                max: f64::MAX,
+                hint: format!("; it must be positive (the default is {DEFAULT_RIDGE})"),
+            }
+            .into())
+        }
+    }
+}
+
+/// One training fabric's weight in a [`FabricCalibration`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WeightedFabric {
+    /// The training fabric, as the model file records it.
+    pub fabric: TrainingFabric,
+    /// Its weight in the blend (may be negative).
+    pub weight: Real,
+}
+
+/// A fabric calibrated with one simulated drape for one model ([`Predictor::calibrate`]):
+/// the weights of its own ω and of the model's training fabrics (module docs). Serialisable
+/// (JSON: [`FabricCalibration::save`], [`FabricCalibration::load`]), so a fabric is
+/// calibrated once and reused.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FabricCalibration {
+    /// [`CALIBRATION_VERSION`] when written.
+    pub version: u32,
+    /// The fabric's name (free-form, for people).
+    pub name: String,
+    /// The fabric's normalised ω.
+    pub omega: [Real; MATERIAL_DIM],
+    /// The weight of the nets' prediction for `omega`.
+    pub own_weight: Real,
+    /// The weights of the model's training fabrics, in the model file's order.
+    pub training: Vec<WeightedFabric>,
+    /// The garment template of the model it was fitted for (hex hash).
+    pub template_hash: String,
+    /// The settings it was fitted with.
+    pub settings: CalibrationSettings,
+    /// Mean per-vertex distance (mm) between the uncalibrated prediction and the reference
+    /// drape, at the reference pose.
+    pub reference_error_mm: Real,
+    /// The same for the calibrated prediction. The weights were fitted there, so this says
+    /// how well the blend can reproduce the drape, not how well it predicts other poses.
+    pub calibrated_reference_error_mm: Real,
+}
+
+impl FabricCalibration {
+    /// Every weight, its own ω's first, then the training fabrics' in order.
+    fn weights(&self) -> impl Iterator<Item = (&[Real; MATERIAL_DIM], Real)> {
+        std::iter::once((&self.omega, self.own_weight))
+            .chain(self.training.iter().map(|w| (&w.fabric.omega, w.weight)))
+    }
+
+    /// Checks that the calibration is usable with `predictor`: finite weights summing to
+    /// one, ω inside the unit cube, and the predictor's template and training fabrics.
+    ///
+    /// # Errors
+    /// [`Error::Calibration`] naming what differs and saying to calibrate again.
+    pub fn check_for(&self, predictor: &Predictor) -> Result<()> {
+        let mismatch = |what: String| {
+            Err(Error::Calibration(format!(
+                "{what}; calibrate the fabric again with this model (`garmatnet calibrate`)"
+            )))
+        };
+        if self.version != CALIBRATION_VERSION {
+            return mismatch(format!(
+                "the calibration has version {}, this build reads version {CALIBRATION_VERSION}",
+                self.version
+            ));
+        }
+        if self.template_hash != predictor.model().meta.template.hash {
+            return mismatch(format!(
+                "the calibration was fitted for garment template {}, the model predicts {}",
+                self.template_hash,
+                predictor.model().meta.template.hash
+            ));
+        }
+        let fabrics = predictor.training_fabrics();
+        let same = fabrics.len() == self.training.len()
+            && fabrics
+                .iter()
+                .zip(&self.training)
+                .all(|(a, b)| a.name == b.fabric.name && a.omega == b.fabric.omega);
+        if !same {
+            return mismatch(format!(
+                "the calibration blends {} training fabrics, which are not the model's {}",
+                self.training.len(),
+                fabrics.len()
+            ));
+        }
+        let weights: Vec<Real> = self.weights().map(|(_, w)| w).collect();
+        if let Err(e) = ensure_finite("calibration weights", weights.iter().copied()) {
+            return mismatch(e.to_string());
+        }
+        let sum: Real = weights.iter().sum();
+        if (sum - 1.0).abs() > 1e-6 {
+            return mismatch(format!(
+                "the calibration's weights sum to {sum}, not 1 (the file was edited?)"
+            ));
+        }
+        validate_inputs(&Pose::zero(), &self.omega)
+    }
+
+    /// Writes the calibration as JSON, atomically (a temporary file, then a rename).
+    ///
+    /// # Errors
+    /// [`Error::Core`] (I/O) if the file cannot be written.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let json = serde_json::to_vec_pretty(self).map_err(|e| {
+            garmatnet_core::Error::InvalidArgument(format!("serialising a calibration: {e}"))
+        })?;
+        Ok(garmatnet_core::write_bytes_atomic(path, &json)?)
+    }
+
+    /// Reads a calibration written by [`FabricCalibration::save`].
+    ///
+    /// # Errors
+    /// [`Error::Core`]: I/O if the file cannot be read, parse errors for a file that is not a
+    /// calibration (the message says where). [`FabricCalibration::check_for`] checks it
+    /// against a model.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let bytes = std::fs::read(path).map_err(|e| garmatnet_core::Error::io(path, e))?;
+        serde_json::from_slice(&bytes).map_err(|e| {
+            garmatnet_core::Error::Parse {
+                path: path.to_owned(),
+                line: Some(e.line()),
+                message: format!("not a garmatnet fabric calibration: {e}"),
+            }
+            .into()
+        })
+    }
+}
+
+/// Mean per-vertex distance between two garments (mm).
+fn mean_distance_mm(a: &[Vec3], b: &[Vec3]) -> Real {
+    let total: Real = a.iter().zip(b).map(|(x, y)| (x - y).norm()).sum();
+    1e3 * total / a.len().max(1) as Real
+}
+
+impl Predictor {
+    /// Calibrates `material` (called `name` in the result) with `drape`, the simulator's
+    /// drape of it at `pose` (the template's vertices, metres): the weights of the module
+    /// docs.
+    ///
+    /// # Errors
+    /// [`Error::Calibration`] if the model file records no training fabrics (models trained
+    /// before they were recorded); [`Error::Core`] for an invalid material, pose, settings,
+    /// or a drape with the wrong vertex count or a non-finite coordinate;
+    /// [`Error::NonFiniteOutput`] if the nets produce NaN.
+    pub fn calibrate(
+        &self,
+        name: &str,
+        material: &Material,
+        pose: &Pose,
+        drape: &[Vec3],
+        settings: &CalibrationSettings,
+    ) -> Result<FabricCalibration> {
+        settings.validate()?;
+        material.validate()?;
+        let omega = material.to_normalized();
+        validate_inputs(pose, &omega)?;
+        let n = self.vertex_count();
+        if drape.len() != n {
+            return Err(garmatnet_core::Error::Mismatch {
+                what: "reference drape (one position per garment vertex)".into(),
+                expected: format!("{n} vertices"),
+                got: format!("{} vertices", drape.len()),
+            }
+            .into());
+        }
+        ensure_finite(
+            "reference drape",
+            drape.iter().flat_map(|v| [v.x, v.y, v.z]),
+        )?;
+        let fabrics = self.training_fabrics();
+        if fabrics.is_empty() {
+            return Err(Error::Calibration(
+                "the model file records no training fabrics to blend; use a model trained \
+                 with this version of garmatnet"
+                    .into(),
+            ));
+        }
+        let items: Vec<_> = std::iter::once(omega)
+            .chain(fabrics.iter().map(|f| f.omega))
+            .map(|m| (pose.clone(), m))
+            .collect();
+        let predicted = self.predict_batch(&items, Detail::Full)?;
+        let own = &predicted[0].vertices;
+        let columns = predicted.len() - 1;
+        let a = DMatrix::from_fn(3 * n, columns, |row, f| {
+            predicted[f + 1].vertices[row / 3][row % 3] - own[row / 3][row % 3]
+        });
+        let r = DVector::from_fn(3 * n, |row, _| {
+            drape[row / 3][row % 3] - own[row / 3][row % 3]
+        });
+        let mut gram = a.transpose() * &a;
+        let scale = gram.trace() / columns as Real;
+        // Training fabrics that all predict the same garment as the fabric itself leave
+        // nothing to fit: keep the nets' own prediction.
+        let v = if scale > 0.0 {
+            for i in 0..columns {
+                gram[(i, i)] += settings.ridge * scale;
+            }
+            let rhs = a.transpose() * r;
+            gram.cholesky().map(|c| c.solve(&rhs)).ok_or_else(|| {
+                Error::Calibration(
+                    "the blend's normal equations are not positive definite; raise the \
+                         ridge weight"
+                        .into(),
+                )
+            })?
+        } else {
+            DVector::zeros(columns)
+        };
+        let blended: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let mut x = own[i];
+                for (f, p) in predicted[1..].iter().enumerate() {
+                    x += v[f] * (p.vertices[i] - own[i]);
+                }
+                x
+            })
+            .collect();
+        let training = fabrics
+            .iter()
+            .zip(v.iter())
+            .map(|(fabric, &weight)| WeightedFabric {
+                fabric: fabric.clone(),
+                weight,
+            })
+            .collect();
+        Ok(FabricCalibration {
+            version: CALIBRATION_VERSION,
+            name: name.to_owned(),
+            omega,
+            own_weight: 1.0 - v.sum(),
+            training,
+            template_hash: self.model().meta.template.hash.clone(),
+            settings: *settings,
+            reference_error_mm: mean_distance_mm(own, drape),
+            calibrated_reference_error_mm: mean_distance_mm(&blended, drape),
+        })
+    }
+
+    /// Predicts the garment at `pose` for a calibrated fabric, pushed out of the body as
+    /// [`Predictor::predict`] does.
+    ///
+    /// # Errors
+    /// [`Error::Calibration`] for a calibration made for another model
+    /// ([`FabricCalibration::check_for`]); [`Error::Core`] for a non-finite pose;
+    /// [`Error::NonFiniteOutput`] if the nets produce NaN.
+    pub fn predict_calibrated(
+        &self,
+        pose: &Pose,
+        calibration: &FabricCalibration,
+        detail: Detail,
+    ) -> Result<GarmentMesh> {
+        let mut meshes =
+            self.predict_calibrated_sequence(std::slice::from_ref(pose), calibration, detail)?;
+        Ok(meshes.remove(0))
+    }
+
+    /// Predicts the garments at each of `poses` for a calibrated fabric, each pushed out of
+    /// its posed body as [`Predictor::predict`] does.
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_calibrated`], for the first bad pose.
+    pub fn predict_calibrated_sequence(
+        &self,
+        poses: &[Pose],
+        calibration: &FabricCalibration,
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        calibration.check_for(self)?;
+        let mut out = Vec::with_capacity(poses.len());
+        for chunk in poses.chunks(crate::predictor::SEQUENCE_BATCH) {
+            let meshes = self.calibrated_batch(chunk, calibration, detail)?;
+            out.extend(self.pushed_out(meshes, chunk));
+        }
+        Ok(out)
+    }
+
+    /// The blended prediction of module docs for a batch of poses, before push-out.
+    pub(crate) fn calibrated_batch(
+        &self,
+        poses: &[Pose],
+        calibration: &FabricCalibration,
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        for (i, pose) in poses.iter().enumerate() {
+            validate_inputs(pose, &calibration.omega)
+                .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("pose {i}: {e}")))?;
+        }
+        // Fabrics with no weight add nothing; leaving them out saves their rows.
+        let (omegas, weights): (Vec<_>, Vec<_>) = calibration
+            .weights()
+            .filter(|(_, w)| *w != 0.0)
+            .map(|(m, w)| (*m, w))
+            .unzip();
+        let f = omegas.len();
+        let device = self.device();
+        let (pose_t, _) = self.input_tensors(poses.iter().map(|p| (p, &calibration.omega)));
+        let materials = matrix(
+            omegas.iter().flatten().map(|&v| v as f32).collect(),
+            f,
+            MATERIAL_DIM,
+            device,
+        );
+        let weights = matrix(weights.iter().map(|&w| w as f32).collect(), f, 1, device);
+        let model = self.model();
+        let run = |net: &GarMatNet| {
+            to_f32(blended_forward(
+                net,
+                pose_t.clone(),
+                materials.clone(),
+                weights.clone(),
+            ))
+        };
+        let fitting = run(&model.fitting);
+        let local = match detail {
+            Detail::Full => Some(run(&model.local)),
+            Detail::Smooth => None,
+        };
+        let n3 = 3 * self.vertex_count();
+        poses
+            .iter()
+            .enumerate()
+            .map(|(i, pose)| {
+                let d_fit = model
+                    .fitting_norm
+                    .denormalize(&fitting[i * n3..(i + 1) * n3]);
+                let d_loc = local
+                    .as_ref()
+                    .map(|l| model.local_norm.denormalize(&l[i * n3..(i + 1) * n3]));
+                let vertices = self.assemble(
+                    pose,
+                    &d_fit,
+                    d_loc.as_deref(),
+                    None,
+                    &format!("calibrated pose {i}"),
+                )?;
+                Ok(GarmentMesh {
+                    vertices,
+                    faces: self.faces().to_vec(),
+                })
+            })
+            .collect()
+    }
+}
+
+/// `net`'s normalised output for each of `B` poses from the `weights`-blend of its hidden
+/// activations over `F` materials.
+///
+/// # Shapes
+/// `pose`: `[B, 72]`, `materials`: `[F, 6]`, `weights`: `[F, 1]`; output `[B, out]`.
+fn blended_forward(
+    net: &GarMatNet,
+    pose: Tensor<2>,
+    materials: Tensor<2>,
+    weights: Tensor<2>,
+) -> Tensor<2> {
+    let [b, _] = pose.dims();
+    let [f, _] = materials.dims();
+    let pose_features = net.pose_features(pose);
+    let material_features = net.material_features(materials);
+    let [_, p] = pose_features.dims();
+    let [_, m] = material_features.dims();
+    // Row (i, j) pairs pose i with material j.
+    let poses = pose_features
+        .reshape([b, 1, p])
+        .repeat_dim(1, f)
+        .reshape([b * f, p]);
+    let materials = material_features
+        .reshape([1, f, m])
+        .repeat_dim(0, b)
+        .reshape([b * f, m]);
+    let hidden = net.hidden(poses, materials);
+    let [_, h] = hidden.dims();
+    let blended = (hidden.reshape([b, f, h]) * weights.reshape([1, f, 1]))
+        .sum_dim(1)
+        .reshape([b, h]);
+    net.forward_all(blended)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{TEST_VERTICES, cpu, small_model, test_predictor};
+    use garmatnet_core::{JointLimits, SplitMix64};
+
+    const FABRICS: [&str; 4] = ["Denim Heavy", "Linen", "Silk Chiffon", "Felt"];
+
+    /// A small model (with a low-rank head when `rank` is set) that records four training
+    /// fabrics.
+    fn predictor(rank: Option<usize>) -> Predictor {
+        let dev = cpu();
+        let mut model = small_model(11, rank, &dev);
+        model.meta.provenance.training_fabrics = FABRICS
+            .map(|name| TrainingFabric {
+                name: name.into(),
+                omega: Material::preset(name).unwrap().to_normalized(),
+            })
+            .into();
+        test_predictor(model, &dev)
+    }
+
+    fn poses(count: usize, seed: u64) -> Vec<Pose> {
+        let mut rng = SplitMix64::new(seed);
+        (0..count)
+            .map(|_| JointLimits::default().sample(&mut rng, 0.8))
+            .collect()
+    }
+
+    fn max_distance(a: &[Vec3], b: &[Vec3]) -> Real {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).norm())
+            .fold(0.0, Real::max)
+    }
+
+    /// A calibration with hand-set weights (summing to one) for `predictor`.
+    fn with_weights(
+        predictor: &Predictor,
+        omega: [Real; 6],
+        weights: [Real; 4],
+    ) -> FabricCalibration {
+        FabricCalibration {
+            version: CALIBRATION_VERSION,
+            name: "hand-set".into(),
+            omega,
+            own_weight: 1.0 - weights.iter().sum::<Real>(),
+            training: predictor
+                .training_fabrics()
+                .iter()
+                .zip(weights)
+                .map(|(fabric, weight)| WeightedFabric {
+                    fabric: fabric.clone(),
+                    weight,
+                })
+                .collect(),
+            template_hash: predictor.model().meta.template.hash.clone(),
+            settings: CalibrationSettings::default(),
+            reference_error_mm: 0.0,
+            calibrated_reference_error_mm: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_calibrated_prediction_is_the_weighted_sum_of_the_fabrics_predictions() {
+        // The blend of hidden activations must equal the blend of the garments, for full
+        // and low-rank heads and both detail levels.
+        for rank in [None, Some(8)] {
+            let p = predictor(rank);
+            let own = Material::preset("Velvet").unwrap().to_normalized();
+            let calibration = with_weights(&p, own, [0.7, -0.2, 0.4, 0.0]);
+            let poses = poses(3, 5);
+            for detail in [Detail::Full, Detail::Smooth] {
+                let blended = p
+                    .predict_calibrated_sequence(&poses, &calibration, detail)
+                    .unwrap();
+                for (pose, mesh) in poses.iter().zip(&blended) {
+                    let mut expected = vec![Vec3::zeros(); TEST_VERTICES];
+                    for (omega, w) in calibration.weights() {
+                        let m = p.predict_normalized(pose, omega, detail).unwrap();
+                        for (e, v) in expected.iter_mut().zip(&m.vertices) {
+                            *e += w * v;
+                        }
+                    }
+                    let gap = max_distance(&mesh.vertices, &expected);
+                    assert!(
+                        gap < 1e-5,
+                        "rank {rank:?}, {detail}: {gap} m off the weighted sum"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn calibrating_with_a_training_fabrics_drape_recovers_that_fabric() {
+        let p = predictor(Some(8));
+        let reference = Pose::zero();
+        let velvet = Material::preset("Velvet").unwrap();
+        // The "simulated" drape is the nets' prediction for Felt: the blend should find it.
+        let felt = Material::preset("Felt").unwrap().to_normalized();
+        let drape = p
+            .predict_normalized(&reference, &felt, Detail::Full)
+            .unwrap();
+        let settings = CalibrationSettings { ridge: 1e-6 };
+        let c = p
+            .calibrate("Velvet", &velvet, &reference, &drape.vertices, &settings)
+            .unwrap();
+        assert!(c.reference_error_mm > 1.0, "{}", c.reference_error_mm);
+        assert!(
+            c.calibrated_reference_error_mm < 0.01 * c.reference_error_mm,
+            "{} of {} mm left at the reference pose",
+            c.calibrated_reference_error_mm,
+            c.reference_error_mm
+        );
+        let sum = c.own_weight + c.training.iter().map(|w| w.weight).sum::<Real>();
+        assert!((sum - 1.0).abs() < 1e-9);
+        // At other poses the calibrated fabric predicts Felt's garment far better than
+        // Velvet's own ω does.
+        for pose in poses(3, 8) {
+            let truth = p.predict_normalized(&pose, &felt, Detail::Full).unwrap();
+            let own = p
+                .predict_normalized(&pose, &velvet.to_normalized(), Detail::Full)
+                .unwrap();
+            let calibrated = p.predict_calibrated(&pose, &c, Detail::Full).unwrap();
+            let before = mean_distance_mm(&own.vertices, &truth.vertices);
+            let after = mean_distance_mm(&calibrated.vertices, &truth.vertices);
+            assert!(
+                after < 0.2 * before,
+                "{after} mm calibrated, {before} mm not"
+            );
+        }
+    }
+
+    #[test]
+    fn a_large_ridge_gives_back_the_uncalibrated_nets() {
+        let p = predictor(None);
+        let velvet = Material::preset("Velvet").unwrap();
+        let felt = Material::preset("Felt").unwrap().to_normalized();
+        let reference = Pose::zero();
+        let drape = p
+            .predict_normalized(&reference, &felt, Detail::Full)
+            .unwrap();
+        let settings = CalibrationSettings { ridge: 1e9 };
+        let c = p
+            .calibrate("Velvet", &velvet, &reference, &drape.vertices, &settings)
+            .unwrap();
+        assert!((c.own_weight - 1.0).abs() < 1e-6, "{}", c.own_weight);
+        let pose = &poses(1, 3)[0];
+        let plain = p
+            .predict_normalized(pose, &velvet.to_normalized(), Detail::Full)
+            .unwrap();
+        let calibrated = p.predict_calibrated(pose, &c, Detail::Full).unwrap();
+        assert!(max_distance(&plain.vertices, &calibrated.vertices) < 1e-5);
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let p = predictor(None);
+        let velvet = Material::preset("Velvet").unwrap();
+        let pose = Pose::zero();
+        let good = vec![Vec3::new(0.0, 1.0, 0.0); TEST_VERTICES];
+        let settings = CalibrationSettings::default();
+        let short = p.calibrate("v", &velvet, &pose, &good[1..], &settings);
+        assert!(
+            matches!(
+                short,
+                Err(Error::Core(garmatnet_core::Error::Mismatch { .. }))
+            ),
+            "{short:?}"
+        );
+        let mut nan = good.clone();
+        nan[7].y = Real::NAN;
+        let nan = p.calibrate("v", &velvet, &pose, &nan, &settings);
+        assert!(
+            matches!(
+                nan,
+                Err(Error::Core(garmatnet_core::Error::NonFinite { .. }))
+            ),
+            "{nan:?}"
+        );
+        for ridge in [0.0, -1.0, Real::NAN] {
+            let bad = p.calibrate("v", &velvet, &pose, &good, &CalibrationSettings { ridge });
+            assert!(matches!(bad, Err(Error::Core(_))), "{ridge}: {bad:?}");
+        }
+        // A model that records no training fabrics has nothing to blend.
+        let dev = cpu();
+        let bare = test_predictor(small_model(11, None, &dev), &dev);
+        let err = bare
+            .calibrate("v", &velvet, &pose, &good, &settings)
+            .unwrap_err();
+        assert!(matches!(err, Error::Calibration(_)), "{err:?}");
+        assert!(
+            err.to_string().contains("records no training fabrics"),
+            "{err}"
+        );
+
+        // A calibration from one model is refused by a model with other training fabrics,
+        // and weights that no longer sum to one are refused.
+        let c = p.calibrate("v", &velvet, &pose, &good, &settings).unwrap();
+        let err = bare
+            .predict_calibrated(&pose, &c, Detail::Full)
+            .unwrap_err();
+        assert!(
+            err.to_string().contains("calibrate the fabric again"),
+            "{err}"
+        );
+        let mut edited = c.clone();
+        edited.own_weight += 0.5;
+        let err = p
+            .predict_calibrated(&pose, &edited, Detail::Full)
+            .unwrap_err();
+        assert!(err.to_string().contains("sum to"), "{err}");
+    }
+
+    #[test]
+    fn a_calibration_file_round_trips_and_a_bad_one_is_a_parse_error() {
+        let p = predictor(None);
+        let dir = tempfile::tempdir().unwrap();
+        let c = with_weights(&p, [0.5; 6], [0.1, 0.2, -0.1, 0.3]);
+        let path = dir.path().join("fabric.json");
+        c.save(&path).unwrap();
+        assert_eq!(FabricCalibration::load(&path).unwrap(), c);
+        std::fs::write(&path, b"{\"version\": 1, \"name\": ").unwrap();
+        let err = FabricCalibration::load(&path).unwrap_err();
+        assert!(
+            matches!(err, Error::Core(garmatnet_core::Error::Parse { .. })),
+            "{err:?}"
+        );
+        let missing = FabricCalibration::load(dir.path().join("none.json")).unwrap_err();
+        assert!(matches!(
+            missing,
+            Error::Core(garmatnet_core::Error::Io { .. })
+        ));
+    }
+}

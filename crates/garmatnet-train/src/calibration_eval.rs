@@ -1,0 +1,160 @@
+//! How much a fabric calibration ([`garmatnet_model::calibration`]) helps, measured on a
+//! dataset's own drapes: each fabric is calibrated with its drape at one reference pose, and
+//! the calibrated and uncalibrated predictions are held against its drapes at every other
+//! pose.
+
+use garmatnet_core::{Material, Real};
+use garmatnet_model::{CalibrationSettings, Detail, Predictor};
+use serde::{Deserialize, Serialize};
+
+use crate::dataset_loader::{SampleKey, TrainingDataset};
+use crate::error::{Error, Result};
+use crate::showcase::vertex_errors_mm;
+
+/// One fabric's errors in a [`CalibrationEval`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationRow {
+    /// The fabric's name in the dataset.
+    pub material: String,
+    /// The model's training fabric nearest in normalised ω, and that distance (absent when
+    /// the model records none).
+    pub nearest_training: Option<(String, Real)>,
+    /// How many poses were predicted (every finished pose but the reference).
+    pub poses: usize,
+    /// Mean per-vertex error of the uncalibrated nets over those poses (mm).
+    pub uncalibrated_mm: Real,
+    /// The same for the calibrated nets, one per ridge weight of [`CalibrationEval::ridges`].
+    pub calibrated_mm: Vec<Real>,
+    /// The uncalibrated error at the reference pose (mm).
+    pub reference_mm: Real,
+    /// The calibrated error at the reference pose, per ridge weight (mm): a fit, not a test.
+    pub calibrated_reference_mm: Vec<Real>,
+}
+
+/// [`evaluate_calibration`]'s result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationEval {
+    /// The dataset's pose index each fabric was calibrated at.
+    pub reference_pose: usize,
+    /// The ridge weights tried.
+    pub ridges: Vec<Real>,
+    /// One row per fabric with a finished reference drape, in the dataset's order.
+    pub rows: Vec<CalibrationRow>,
+    /// The rows' mean of [`CalibrationRow::uncalibrated_mm`].
+    pub mean_uncalibrated_mm: Real,
+    /// The rows' mean of [`CalibrationRow::calibrated_mm`], per ridge weight.
+    pub mean_calibrated_mm: Vec<Real>,
+}
+
+/// Calibrates every fabric of `data` with its drape at `reference_pose` (once per ridge
+/// weight in `ridges`) and measures the mean per-vertex error of the full prediction, before
+/// push-out, at every other finished pose, calibrated and not. Fabrics without a finished
+/// reference drape are skipped.
+///
+/// # Errors
+/// [`Error::InvalidConfig`] for no ridge weights, a reference pose past the dataset's poses
+/// or no fabric with a finished reference drape; the model's errors (e.g. a model that
+/// records no training fabrics, or another garment template); unreadable samples.
+pub fn evaluate_calibration(
+    data: &TrainingDataset,
+    predictor: &Predictor,
+    reference_pose: usize,
+    ridges: &[Real],
+) -> Result<CalibrationEval> {
+    if ridges.is_empty() {
+        return Err(Error::InvalidConfig(
+            "give at least one ridge weight".into(),
+        ));
+    }
+    let spec = data.spec();
+    if reference_pose >= spec.poses.len() {
+        return Err(Error::InvalidConfig(format!(
+            "reference pose {reference_pose} is past the dataset's {} poses",
+            spec.poses.len()
+        )));
+    }
+    let mut rows = Vec::new();
+    for (m, material) in spec.materials.iter().enumerate() {
+        let finished: Vec<usize> = data
+            .records()
+            .iter()
+            .filter(|r| r.material == m)
+            .map(|r| r.pose)
+            .collect();
+        if !finished.contains(&reference_pose) {
+            continue;
+        }
+        let fabric = Material::from_array(material.omega)?;
+        let reference = data.truth(SampleKey {
+            material: m,
+            pose: reference_pose,
+        })?;
+        let calibrations = ridges
+            .iter()
+            .map(|&ridge| {
+                predictor.calibrate(
+                    &material.name,
+                    &fabric,
+                    &spec.poses[reference_pose],
+                    &reference.simulated,
+                    &CalibrationSettings { ridge },
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let omega = material.omega_normalized;
+        let mut uncalibrated = 0.0;
+        let mut calibrated = vec![0.0; ridges.len()];
+        let tested: Vec<usize> = finished
+            .into_iter()
+            .filter(|&p| p != reference_pose)
+            .collect();
+        for &p in &tested {
+            let truth = data.truth(SampleKey {
+                material: m,
+                pose: p,
+            })?;
+            let pose = &spec.poses[p];
+            let plain = predictor.predict_batch(&[(pose.clone(), omega)], Detail::Full)?;
+            uncalibrated += mean(&vertex_errors_mm(&plain[0].vertices, &truth.simulated)?);
+            for (sum, calibration) in calibrated.iter_mut().zip(&calibrations) {
+                let mesh = predictor.predict_calibrated(pose, calibration, Detail::Full)?;
+                *sum += mean(&vertex_errors_mm(&mesh.vertices, &truth.simulated)?);
+            }
+        }
+        let count = tested.len().max(1) as Real;
+        rows.push(CalibrationRow {
+            material: material.name.clone(),
+            nearest_training: predictor
+                .nearest_training_fabric(&fabric)
+                .map(|(f, d)| (f.name.clone(), d)),
+            poses: tested.len(),
+            uncalibrated_mm: uncalibrated / count,
+            calibrated_mm: calibrated.iter().map(|s| s / count).collect(),
+            reference_mm: calibrations[0].reference_error_mm,
+            calibrated_reference_mm: calibrations
+                .iter()
+                .map(|c| c.calibrated_reference_error_mm)
+                .collect(),
+        });
+    }
+    if rows.is_empty() {
+        return Err(Error::InvalidConfig(format!(
+            "no fabric of the dataset has a finished drape at reference pose {reference_pose}"
+        )));
+    }
+    let mean_uncalibrated_mm = mean(&rows.iter().map(|r| r.uncalibrated_mm).collect::<Vec<_>>());
+    let mean_calibrated_mm = (0..ridges.len())
+        .map(|k| mean(&rows.iter().map(|r| r.calibrated_mm[k]).collect::<Vec<_>>()))
+        .collect();
+    Ok(CalibrationEval {
+        reference_pose,
+        ridges: ridges.to_vec(),
+        rows,
+        mean_uncalibrated_mm,
+        mean_calibrated_mm,
+    })
+}
+
+fn mean(values: &[Real]) -> Real {
+    values.iter().sum::<Real>() / values.len().max(1) as Real
+}

@@ -1,0 +1,203 @@
+//! `garmatnet calibrate` and `garmatnet eval-calibration`: a fabric described by one
+//! simulated drape ([`garmatnet::model::calibration`]), and how much that helps.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use garmatnet::model::{
+    CalibrationSettings, DEFAULT_RIDGE, Predictor, default_model_path, select_device,
+};
+use garmatnet::sim::SequenceSettings;
+use garmatnet::train::{
+    TrainingDataset, evaluate_calibration, resolve_material, resolve_pose, simulate_drape,
+};
+use garmatnet::{CapsuleBody, Garment};
+
+/// Calibrate a fabric for a model with one simulated drape, and write the calibration.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Model file (default: the shipped model, or $GARMATNET_MODEL).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// A fabric preset name (see `garmatnet materials`) or six physical values
+    /// (N/m ×5, kg/m²) separated by commas.
+    #[arg(long, required_unless_present = "omega")]
+    pub material: Option<String>,
+    /// The material as normalised ω: six numbers in [0, 1] separated by commas (overrides
+    /// --material).
+    #[arg(long)]
+    pub omega: Option<String>,
+    /// The fabric's name in the calibration file (default: --material, else "fabric").
+    #[arg(long)]
+    pub name: Option<String>,
+    /// The reference pose: a frame of the built-in motion, or a pose file (.json, .npz,
+    /// .npy). Default: the rest T-pose (the quickest drape).
+    #[arg(long)]
+    pub pose: Option<String>,
+    /// Which pose of a pose file (default 0).
+    #[arg(long)]
+    pub frame: Option<usize>,
+    /// The ridge weight λ: larger keeps the calibrated fabric nearer the uncalibrated nets.
+    #[arg(long, default_value_t = DEFAULT_RIDGE)]
+    pub ridge: f64,
+    /// The calibration file to write (JSON); `garmatnet drape --calibration` reads it.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `calibrate`.
+pub fn run(args: &CalibrateArgs) -> Result<()> {
+    let material = resolve_material(args.material.as_deref(), args.omega.as_deref(), "")?;
+    let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
+    let settings = CalibrationSettings { ridge: args.ridge };
+    settings.validate()?;
+    let device = select_device("cpu")?;
+    let model_path = args.model.clone().unwrap_or_else(default_model_path);
+    let predictor = Predictor::from_file(&model_path, &device)?;
+    if predictor.training_fabrics().is_empty() {
+        bail!(
+            "{} records no training fabrics to blend; calibrate with a model trained by this \
+             version of garmatnet",
+            model_path.display()
+        );
+    }
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(predictor.model().meta.template.resolution, &body)?;
+    outln!("draping the fabric with the simulator (seconds) ...")?;
+    let drape = simulate_drape(
+        &garment,
+        &body,
+        &pose,
+        &material,
+        &SequenceSettings::default(),
+    )?;
+    if !drape.converged {
+        eprintln!(
+            "warning: the simulator's drape did not meet its residual tolerance; the \
+             calibration fits it as it is"
+        );
+    }
+    let name = args
+        .name
+        .clone()
+        .or_else(|| args.material.clone())
+        .unwrap_or_else(|| "fabric".to_owned());
+    let calibration = predictor.calibrate(&name, &material, &pose, &drape.vertices, &settings)?;
+    calibration
+        .save(&args.out)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    let mut weights: Vec<(&str, f64)> = calibration
+        .training
+        .iter()
+        .map(|w| (w.fabric.name.as_str(), w.weight))
+        .collect();
+    weights.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    outln!(
+        "simulated in {:.1} s; at the reference pose the nets erred {:.2} mm, the calibrated \
+         blend {:.2} mm",
+        drape.wall_ms / 1e3,
+        calibration.reference_error_mm,
+        calibration.calibrated_reference_error_mm
+    )?;
+    let largest: Vec<String> = weights
+        .iter()
+        .take(5)
+        .map(|(n, w)| format!("{n} {w:+.3}"))
+        .collect();
+    outln!(
+        "weights: own ω {:+.3}; largest training fabrics: {}",
+        calibration.own_weight,
+        largest.join(", ")
+    )?;
+    outln!("wrote {}", args.out.display())?;
+    Ok(())
+}
+
+/// Measure fabric calibration on a dataset: each fabric calibrated with its drape at one
+/// pose, the calibrated and uncalibrated predictions held against its other drapes.
+#[derive(Debug, Args)]
+pub struct EvalCalibrationArgs {
+    /// The dataset directory (fabrics the model was not trained on show what calibration is
+    /// for).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Model file (default: the shipped model, or $GARMATNET_MODEL).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// The dataset's pose index to calibrate each fabric at.
+    #[arg(long, default_value_t = 0)]
+    pub reference_pose: usize,
+    /// Ridge weights to try, separated by commas.
+    #[arg(long, default_value = "0.1", value_delimiter = ',')]
+    pub ridge: Vec<f64>,
+    /// Also write the result as JSON here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs `eval-calibration`.
+pub fn run_eval(args: &EvalCalibrationArgs) -> Result<()> {
+    for &ridge in &args.ridge {
+        CalibrationSettings { ridge }.validate()?;
+    }
+    let data = TrainingDataset::open(&args.data, true)?;
+    let device = select_device("cpu")?;
+    let model_path = args.model.clone().unwrap_or_else(default_model_path);
+    let model = garmatnet::model::GarMatNetModel::load(&model_path, &device)?;
+    let predictor = Predictor::for_garment(model, data.garment(), data.body().clone(), &device)?
+        .with_push_out(garmatnet::model::PushOut {
+            enabled: false,
+            ..garmatnet::model::PushOut::default()
+        });
+    let eval = evaluate_calibration(&data, &predictor, args.reference_pose, &args.ridge)?;
+    let ridges: Vec<String> = eval.ridges.iter().map(|r| format!("λ={r}")).collect();
+    outln!(
+        "fabric | nearest training fabric (distance) | poses | reference: nets / calibrated | \
+         nets | calibrated {}",
+        ridges.join(" | ")
+    )?;
+    for row in &eval.rows {
+        let nearest = row
+            .nearest_training
+            .as_ref()
+            .map_or_else(|| "-".to_owned(), |(n, d)| format!("{n} ({d:.3})"));
+        let calibrated: Vec<String> = row
+            .calibrated_mm
+            .iter()
+            .map(|e| format!("{e:.2}"))
+            .collect();
+        let reference: Vec<String> = row
+            .calibrated_reference_mm
+            .iter()
+            .map(|e| format!("{e:.2}"))
+            .collect();
+        outln!(
+            "{} | {nearest} | {} | {:.2} / {} | {:.2} | {}",
+            row.material,
+            row.poses,
+            row.reference_mm,
+            reference.join(" "),
+            row.uncalibrated_mm,
+            calibrated.join(" | ")
+        )?;
+    }
+    let calibrated: Vec<String> = eval
+        .mean_calibrated_mm
+        .iter()
+        .map(|e| format!("{e:.2}"))
+        .collect();
+    outln!(
+        "mean over {} fabrics: nets {:.2} mm, calibrated {} mm",
+        eval.rows.len(),
+        eval.mean_uncalibrated_mm,
+        calibrated.join(" / ")
+    )?;
+    if let Some(out) = &args.out {
+        let json = serde_json::to_vec_pretty(&eval)?;
+        garmatnet::core::write_bytes_atomic(out, &json)
+            .with_context(|| format!("writing {}", out.display()))?;
+        outln!("wrote {}", out.display())?;
+    }
+    Ok(())
+}
