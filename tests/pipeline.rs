@@ -340,6 +340,56 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     assert_eq!(report["held_out_poses"], 4, "{report}");
     assert_eq!(report["held_out_rule"], "frames 0–1 of every 6");
 
+    // Fabric calibration: every fabric calibrated with its drapes at two poses the model
+    // trained on, its other ten poses predicted with and without it.
+    let calibrated = garmatnet(
+        &[
+            "eval-calibration",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--reference-poses",
+            "2,3",
+            "--ridge",
+            "0.1,1e6",
+            "--out",
+            "calibration.json",
+        ],
+        dir,
+    )?;
+    assert!(calibrated.contains("mean over 7 fabrics"), "{calibrated}");
+    let calibration: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("calibration.json"))?)?;
+    let rows = calibration["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 7, "{calibration}");
+    for row in rows {
+        assert_eq!(row["poses"], 10, "{row}");
+        let plain = row["uncalibrated_mm"].as_f64().unwrap_or(f64::NAN);
+        let errors = row["calibrated_mm"].as_array().expect("one per ridge");
+        let (fitted, stiff) = (errors[0].as_f64().unwrap(), errors[1].as_f64().unwrap());
+        assert!(plain.is_finite() && fitted.is_finite(), "{row}");
+        // A huge ridge keeps the uncalibrated nets.
+        assert!((stiff - plain).abs() < 1e-3 * plain, "{row}");
+    }
+    let (before, after) = (
+        calibration["mean_uncalibrated_mm"].as_f64().unwrap(),
+        rows.iter()
+            .map(|r| r["calibrated_reference_mm"][0].as_f64().unwrap())
+            .sum::<f64>()
+            / 7.0,
+    );
+    let at_reference = rows
+        .iter()
+        .map(|r| r["reference_mm"].as_f64().unwrap())
+        .sum::<f64>()
+        / 7.0;
+    // The fit shrinks the gap at the poses it was fitted to.
+    assert!(
+        after < at_reference,
+        "{after} >= {at_reference} (mean at other poses {before})"
+    );
+
     // The harness: the simulator at the dataset's own budget (10 here), warm-started from the
     // previous frame's ground truth, must reproduce the stored sample.
     garmatnet(

@@ -5,8 +5,8 @@
 //! the error is this fabric term (README, "The shipped model and Table 2"). One simulated
 //! drape of the fabric says more. A [`FabricCalibration`] describes the fabric as a blend of
 //! the nets' prediction for its own ω and their predictions for the model's training
-//! fabrics, with weights fitted once so that the blend reproduces one simulated drape `D` at
-//! one reference pose θ₀; the same weights then serve at every pose.
+//! fabrics, with weights fitted once so that the blend reproduces a simulated drape `D` at
+//! a reference pose θ₀ (or several, stacked); the same weights then serve at every pose.
 //!
 //! With `X_f(θ)` the predicted garment (both nets, before push-out) for fabric `f`, `X_*` for
 //! the fabric's own ω and `A` the matrix of columns `X_f(θ₀) − X_*(θ₀)`, the weights `v`
@@ -27,18 +27,18 @@
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use garmatnet_core::{Material, Pose, Vec3};
-//! use garmatnet_model::{CalibrationSettings, Detail, Predictor, select_device};
+//! use garmatnet_model::{CalibrationSettings, Detail, Predictor, ReferenceDrape, select_device};
 //!
 //! let predictor = Predictor::default_tshirt(&select_device("cpu")?)?;
 //! let fabric = Material::preset("Velvet")?;
-//! # let simulated_drape: Vec<Vec3> = Vec::new();
-//! // `simulated_drape`: the solver's drape of this fabric at the rest pose (the
-//! // `garmatnet calibrate` command makes it and writes the calibration as JSON).
+//! # let (pose, simulated_drape): (Pose, Vec<Vec3>) = (Pose::zero(), Vec::new());
+//! // `simulated_drape`: the solver's drape of this fabric at `pose`, a pose the nets
+//! // know well (`garmatnet calibrate` makes the drapes and writes the calibration as JSON).
+//! let reference = ReferenceDrape { pose, vertices: simulated_drape };
 //! let calibration = predictor.calibrate(
 //!     "Velvet",
 //!     &fabric,
-//!     &Pose::zero(),
-//!     &simulated_drape,
+//!     &[reference],
 //!     &CalibrationSettings::default(),
 //! )?;
 //! let mesh = predictor.predict_calibrated(&Pose::zero(), &calibration, Detail::Full)?;
@@ -106,6 +106,15 @@ impl CalibrationSettings {
     }
 }
 
+/// One simulated drape of a fabric, to calibrate it with ([`Predictor::calibrate`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceDrape {
+    /// The pose it was draped at.
+    pub pose: Pose,
+    /// The simulator's garment there: the template's vertices (metres).
+    pub vertices: Vec<Vec3>,
+}
+
 /// One training fabric's weight in a [`FabricCalibration`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WeightedFabric {
@@ -135,11 +144,13 @@ pub struct FabricCalibration {
     pub template_hash: String,
     /// The settings it was fitted with.
     pub settings: CalibrationSettings,
+    /// How many reference drapes it was fitted to.
+    pub references: usize,
     /// Mean per-vertex distance (mm) between the uncalibrated prediction and the reference
-    /// drape, at the reference pose.
+    /// drapes, at their poses (averaged over the drapes).
     pub reference_error_mm: Real,
     /// The same for the calibrated prediction. The weights were fitted there, so this says
-    /// how well the blend can reproduce the drape, not how well it predicts other poses.
+    /// how well the blend can reproduce the drapes, not how well it predicts other poses.
     pub calibrated_reference_error_mm: Real,
 }
 
@@ -238,40 +249,53 @@ fn mean_distance_mm(a: &[Vec3], b: &[Vec3]) -> Real {
 }
 
 impl Predictor {
-    /// Calibrates `material` (called `name` in the result) with `drape`, the simulator's
-    /// drape of it at `pose` (the template's vertices, metres): the weights of the module
-    /// docs.
+    /// Calibrates `material` (called `name` in the result) with `references`, the
+    /// simulator's drapes of it at one or more poses: the weights of the module docs, fitted
+    /// to every reference drape at once.
+    ///
+    /// Choose reference poses at which the nets are accurate, such as poses of their training
+    /// motion: the weights fit the whole gap between prediction and drape there, and a gap
+    /// the nets would have for any fabric (at an unusual pose) is then carried to every pose
+    /// as if the fabric made it (EXPERIMENTS.md, "A fabric calibrated with simulated
+    /// drapes").
     ///
     /// # Errors
     /// [`Error::Calibration`] if the model file records no training fabrics (models trained
-    /// before they were recorded); [`Error::Core`] for an invalid material, pose, settings,
-    /// or a drape with the wrong vertex count or a non-finite coordinate;
+    /// before they were recorded); [`Error::Core`] for no references, an invalid material,
+    /// pose or settings, or a drape with the wrong vertex count or a non-finite coordinate;
     /// [`Error::NonFiniteOutput`] if the nets produce NaN.
     pub fn calibrate(
         &self,
         name: &str,
         material: &Material,
-        pose: &Pose,
-        drape: &[Vec3],
+        references: &[ReferenceDrape],
         settings: &CalibrationSettings,
     ) -> Result<FabricCalibration> {
         settings.validate()?;
         material.validate()?;
-        let omega = material.to_normalized();
-        validate_inputs(pose, &omega)?;
-        let n = self.vertex_count();
-        if drape.len() != n {
-            return Err(garmatnet_core::Error::Mismatch {
-                what: "reference drape (one position per garment vertex)".into(),
-                expected: format!("{n} vertices"),
-                got: format!("{} vertices", drape.len()),
-            }
+        if references.is_empty() {
+            return Err(garmatnet_core::Error::InvalidArgument(
+                "a calibration needs at least one reference drape".into(),
+            )
             .into());
         }
-        ensure_finite(
-            "reference drape",
-            drape.iter().flat_map(|v| [v.x, v.y, v.z]),
-        )?;
+        let omega = material.to_normalized();
+        let n = self.vertex_count();
+        for (k, reference) in references.iter().enumerate() {
+            validate_inputs(&reference.pose, &omega)?;
+            if reference.vertices.len() != n {
+                return Err(garmatnet_core::Error::Mismatch {
+                    what: format!("reference drape {k} (one position per garment vertex)"),
+                    expected: format!("{n} vertices"),
+                    got: format!("{} vertices", reference.vertices.len()),
+                }
+                .into());
+            }
+            ensure_finite(
+                &format!("reference drape {k}"),
+                reference.vertices.iter().flat_map(|v| [v.x, v.y, v.z]),
+            )?;
+        }
         let fabrics = self.training_fabrics();
         if fabrics.is_empty() {
             return Err(Error::Calibration(
@@ -280,18 +304,28 @@ impl Predictor {
                     .into(),
             ));
         }
-        let items: Vec<_> = std::iter::once(omega)
-            .chain(fabrics.iter().map(|f| f.omega))
-            .map(|m| (pose.clone(), m))
-            .collect();
-        let predicted = self.predict_batch(&items, Detail::Full)?;
-        let own = &predicted[0].vertices;
-        let columns = predicted.len() - 1;
-        let a = DMatrix::from_fn(3 * n, columns, |row, f| {
-            predicted[f + 1].vertices[row / 3][row % 3] - own[row / 3][row % 3]
+        let columns = fabrics.len();
+        // Per reference: the nets' garment for the fabric's own ω, then for each training
+        // fabric.
+        let predicted = references
+            .iter()
+            .map(|reference| {
+                let items: Vec<_> = std::iter::once(omega)
+                    .chain(fabrics.iter().map(|f| f.omega))
+                    .map(|m| (reference.pose.clone(), m))
+                    .collect();
+                self.predict_batch(&items, Detail::Full)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let rows = 3 * n;
+        let at = |k: usize, f: usize, row: usize| predicted[k][f].vertices[row / 3][row % 3];
+        let a = DMatrix::from_fn(rows * references.len(), columns, |row, f| {
+            let (k, row) = (row / rows, row % rows);
+            at(k, f + 1, row) - at(k, 0, row)
         });
-        let r = DVector::from_fn(3 * n, |row, _| {
-            drape[row / 3][row % 3] - own[row / 3][row % 3]
+        let r = DVector::from_fn(rows * references.len(), |row, _| {
+            let (k, row) = (row / rows, row % rows);
+            references[k].vertices[row / 3][row % 3] - at(k, 0, row)
         });
         let mut gram = a.transpose() * &a;
         let scale = gram.trace() / columns as Real;
@@ -304,23 +338,31 @@ impl Predictor {
             let rhs = a.transpose() * r;
             gram.cholesky().map(|c| c.solve(&rhs)).ok_or_else(|| {
                 Error::Calibration(
-                    "the blend's normal equations are not positive definite; raise the \
-                         ridge weight"
+                    "the blend's normal equations are not positive definite; raise the ridge \
+                     weight"
                         .into(),
                 )
             })?
         } else {
             DVector::zeros(columns)
         };
-        let blended: Vec<Vec3> = (0..n)
-            .map(|i| {
-                let mut x = own[i];
-                for (f, p) in predicted[1..].iter().enumerate() {
-                    x += v[f] * (p.vertices[i] - own[i]);
-                }
-                x
-            })
-            .collect();
+        let mut before = 0.0;
+        let mut after = 0.0;
+        for (reference, predicted) in references.iter().zip(&predicted) {
+            let own = &predicted[0].vertices;
+            let blended: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let mut x = own[i];
+                    for (f, p) in predicted[1..].iter().enumerate() {
+                        x += v[f] * (p.vertices[i] - own[i]);
+                    }
+                    x
+                })
+                .collect();
+            before += mean_distance_mm(own, &reference.vertices);
+            after += mean_distance_mm(&blended, &reference.vertices);
+        }
+        let count = references.len() as Real;
         let training = fabrics
             .iter()
             .zip(v.iter())
@@ -337,8 +379,9 @@ impl Predictor {
             training,
             template_hash: self.model().meta.template.hash.clone(),
             settings: *settings,
-            reference_error_mm: mean_distance_mm(own, drape),
-            calibrated_reference_error_mm: mean_distance_mm(&blended, drape),
+            references: references.len(),
+            reference_error_mm: before / count,
+            calibrated_reference_error_mm: after / count,
         })
     }
 
@@ -511,6 +554,13 @@ mod tests {
             .collect()
     }
 
+    fn drape_at(pose: &Pose, vertices: Vec<Vec3>) -> ReferenceDrape {
+        ReferenceDrape {
+            pose: pose.clone(),
+            vertices,
+        }
+    }
+
     fn max_distance(a: &[Vec3], b: &[Vec3]) -> Real {
         a.iter()
             .zip(b)
@@ -540,6 +590,7 @@ mod tests {
                 .collect(),
             template_hash: predictor.model().meta.template.hash.clone(),
             settings: CalibrationSettings::default(),
+            references: 1,
             reference_error_mm: 0.0,
             calibrated_reference_error_mm: 0.0,
         }
@@ -579,17 +630,22 @@ mod tests {
     #[test]
     fn calibrating_with_a_training_fabrics_drape_recovers_that_fabric() {
         let p = predictor(Some(8));
-        let reference = Pose::zero();
         let velvet = Material::preset("Velvet").unwrap();
-        // The "simulated" drape is the nets' prediction for Felt: the blend should find it.
+        // The "simulated" drapes are the nets' predictions for Felt at two poses: the blend
+        // should find Felt.
         let felt = Material::preset("Felt").unwrap().to_normalized();
-        let drape = p
-            .predict_normalized(&reference, &felt, Detail::Full)
-            .unwrap();
+        let references: Vec<ReferenceDrape> = [Pose::zero(), poses(1, 21).remove(0)]
+            .into_iter()
+            .map(|pose| {
+                let drape = p.predict_normalized(&pose, &felt, Detail::Full).unwrap();
+                drape_at(&pose, drape.vertices)
+            })
+            .collect();
         let settings = CalibrationSettings { ridge: 1e-6 };
         let c = p
-            .calibrate("Velvet", &velvet, &reference, &drape.vertices, &settings)
+            .calibrate("Velvet", &velvet, &references, &settings)
             .unwrap();
+        assert_eq!(c.references, 2);
         assert!(c.reference_error_mm > 1.0, "{}", c.reference_error_mm);
         assert!(
             c.calibrated_reference_error_mm < 0.01 * c.reference_error_mm,
@@ -627,7 +683,12 @@ mod tests {
             .unwrap();
         let settings = CalibrationSettings { ridge: 1e9 };
         let c = p
-            .calibrate("Velvet", &velvet, &reference, &drape.vertices, &settings)
+            .calibrate(
+                "Velvet",
+                &velvet,
+                &[drape_at(&reference, drape.vertices)],
+                &settings,
+            )
             .unwrap();
         assert!((c.own_weight - 1.0).abs() < 1e-6, "{}", c.own_weight);
         let pose = &poses(1, 3)[0];
@@ -645,7 +706,12 @@ mod tests {
         let pose = Pose::zero();
         let good = vec![Vec3::new(0.0, 1.0, 0.0); TEST_VERTICES];
         let settings = CalibrationSettings::default();
-        let short = p.calibrate("v", &velvet, &pose, &good[1..], &settings);
+        let short = p.calibrate(
+            "v",
+            &velvet,
+            &[drape_at(&pose, good[1..].to_vec())],
+            &settings,
+        );
         assert!(
             matches!(
                 short,
@@ -655,7 +721,7 @@ mod tests {
         );
         let mut nan = good.clone();
         nan[7].y = Real::NAN;
-        let nan = p.calibrate("v", &velvet, &pose, &nan, &settings);
+        let nan = p.calibrate("v", &velvet, &[drape_at(&pose, nan)], &settings);
         assert!(
             matches!(
                 nan,
@@ -664,14 +730,18 @@ mod tests {
             "{nan:?}"
         );
         for ridge in [0.0, -1.0, Real::NAN] {
-            let bad = p.calibrate("v", &velvet, &pose, &good, &CalibrationSettings { ridge });
+            let settings = CalibrationSettings { ridge };
+            let bad = p.calibrate("v", &velvet, &[drape_at(&pose, good.clone())], &settings);
             assert!(matches!(bad, Err(Error::Core(_))), "{ridge}: {bad:?}");
         }
         // A model that records no training fabrics has nothing to blend.
         let dev = cpu();
         let bare = test_predictor(small_model(11, None, &dev), &dev);
+        let none = p.calibrate("v", &velvet, &[], &settings);
+        assert!(matches!(none, Err(Error::Core(_))), "{none:?}");
+        let reference = [drape_at(&pose, good.clone())];
         let err = bare
-            .calibrate("v", &velvet, &pose, &good, &settings)
+            .calibrate("v", &velvet, &reference, &settings)
             .unwrap_err();
         assert!(matches!(err, Error::Calibration(_)), "{err:?}");
         assert!(
@@ -681,7 +751,7 @@ mod tests {
 
         // A calibration from one model is refused by a model with other training fabrics,
         // and weights that no longer sum to one are refused.
-        let c = p.calibrate("v", &velvet, &pose, &good, &settings).unwrap();
+        let c = p.calibrate("v", &velvet, &reference, &settings).unwrap();
         let err = bare
             .predict_calibrated(&pose, &c, Detail::Full)
             .unwrap_err();

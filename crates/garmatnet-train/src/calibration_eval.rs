@@ -1,10 +1,10 @@
 //! How much a fabric calibration ([`garmatnet_model::calibration`]) helps, measured on a
-//! dataset's own drapes: each fabric is calibrated with its drape at one reference pose, and
-//! the calibrated and uncalibrated predictions are held against its drapes at every other
-//! pose.
+//! dataset's own drapes: each fabric is calibrated with its drapes at a few reference poses,
+//! and the calibrated and uncalibrated predictions are held against its drapes at every
+//! other pose.
 
 use garmatnet_core::{Material, Real};
-use garmatnet_model::{CalibrationSettings, Detail, Predictor};
+use garmatnet_model::{CalibrationSettings, Detail, Predictor, ReferenceDrape};
 use serde::{Deserialize, Serialize};
 
 use crate::dataset_loader::{SampleKey, TrainingDataset};
@@ -19,26 +19,26 @@ pub struct CalibrationRow {
     /// The model's training fabric nearest in normalised ω, and that distance (absent when
     /// the model records none).
     pub nearest_training: Option<(String, Real)>,
-    /// How many poses were predicted (every finished pose but the reference).
+    /// How many poses were predicted (every finished pose but the references).
     pub poses: usize,
     /// Mean per-vertex error of the uncalibrated nets over those poses (mm).
     pub uncalibrated_mm: Real,
     /// The same for the calibrated nets, one per ridge weight of [`CalibrationEval::ridges`].
     pub calibrated_mm: Vec<Real>,
-    /// The uncalibrated error at the reference pose (mm).
+    /// The uncalibrated error at the reference poses (mm).
     pub reference_mm: Real,
-    /// The calibrated error at the reference pose, per ridge weight (mm): a fit, not a test.
+    /// The calibrated error at the reference poses, per ridge weight (mm): a fit, not a test.
     pub calibrated_reference_mm: Vec<Real>,
 }
 
 /// [`evaluate_calibration`]'s result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationEval {
-    /// The dataset's pose index each fabric was calibrated at.
-    pub reference_pose: usize,
+    /// The dataset's pose indices each fabric was calibrated at.
+    pub reference_poses: Vec<usize>,
     /// The ridge weights tried.
     pub ridges: Vec<Real>,
-    /// One row per fabric with a finished reference drape, in the dataset's order.
+    /// One row per fabric with every reference drape finished, in the dataset's order.
     pub rows: Vec<CalibrationRow>,
     /// The rows' mean of [`CalibrationRow::uncalibrated_mm`].
     pub mean_uncalibrated_mm: Real,
@@ -46,30 +46,31 @@ pub struct CalibrationEval {
     pub mean_calibrated_mm: Vec<Real>,
 }
 
-/// Calibrates every fabric of `data` with its drape at `reference_pose` (once per ridge
+/// Calibrates every fabric of `data` with its drapes at `reference_poses` (once per ridge
 /// weight in `ridges`) and measures the mean per-vertex error of the full prediction, before
-/// push-out, at every other finished pose, calibrated and not. Fabrics without a finished
-/// reference drape are skipped.
+/// push-out, at every other finished pose, calibrated and not. Fabrics without every
+/// reference drape finished are skipped.
 ///
 /// # Errors
-/// [`Error::InvalidConfig`] for no ridge weights, a reference pose past the dataset's poses
-/// or no fabric with a finished reference drape; the model's errors (e.g. a model that
-/// records no training fabrics, or another garment template); unreadable samples.
+/// [`Error::InvalidConfig`] for no ridge weights or reference poses, a reference pose past
+/// the dataset's poses or no fabric with its reference drapes finished; the model's errors
+/// (e.g. a model that records no training fabrics, or another garment template);
+/// unreadable samples.
 pub fn evaluate_calibration(
     data: &TrainingDataset,
     predictor: &Predictor,
-    reference_pose: usize,
+    reference_poses: &[usize],
     ridges: &[Real],
 ) -> Result<CalibrationEval> {
-    if ridges.is_empty() {
+    if ridges.is_empty() || reference_poses.is_empty() {
         return Err(Error::InvalidConfig(
-            "give at least one ridge weight".into(),
+            "give at least one ridge weight and one reference pose".into(),
         ));
     }
     let spec = data.spec();
-    if reference_pose >= spec.poses.len() {
+    if let Some(&past) = reference_poses.iter().find(|&&p| p >= spec.poses.len()) {
         return Err(Error::InvalidConfig(format!(
-            "reference pose {reference_pose} is past the dataset's {} poses",
+            "reference pose {past} is past the dataset's {} poses",
             spec.poses.len()
         )));
     }
@@ -81,22 +82,27 @@ pub fn evaluate_calibration(
             .filter(|r| r.material == m)
             .map(|r| r.pose)
             .collect();
-        if !finished.contains(&reference_pose) {
+        if !reference_poses.iter().all(|p| finished.contains(p)) {
             continue;
         }
         let fabric = Material::from_array(material.omega)?;
-        let reference = data.truth(SampleKey {
-            material: m,
-            pose: reference_pose,
-        })?;
+        let references = reference_poses
+            .iter()
+            .map(|&pose| {
+                let truth = data.truth(SampleKey { material: m, pose })?;
+                Ok(ReferenceDrape {
+                    pose: spec.poses[pose].clone(),
+                    vertices: truth.simulated,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
         let calibrations = ridges
             .iter()
             .map(|&ridge| {
                 predictor.calibrate(
                     &material.name,
                     &fabric,
-                    &spec.poses[reference_pose],
-                    &reference.simulated,
+                    &references,
                     &CalibrationSettings { ridge },
                 )
             })
@@ -106,7 +112,7 @@ pub fn evaluate_calibration(
         let mut calibrated = vec![0.0; ridges.len()];
         let tested: Vec<usize> = finished
             .into_iter()
-            .filter(|&p| p != reference_pose)
+            .filter(|p| !reference_poses.contains(p))
             .collect();
         for &p in &tested {
             let truth = data.truth(SampleKey {
@@ -139,7 +145,7 @@ pub fn evaluate_calibration(
     }
     if rows.is_empty() {
         return Err(Error::InvalidConfig(format!(
-            "no fabric of the dataset has a finished drape at reference pose {reference_pose}"
+            "no fabric of the dataset has finished drapes at reference poses {reference_poses:?}"
         )));
     }
     let mean_uncalibrated_mm = mean(&rows.iter().map(|r| r.uncalibrated_mm).collect::<Vec<_>>());
@@ -147,7 +153,7 @@ pub fn evaluate_calibration(
         .map(|k| mean(&rows.iter().map(|r| r.calibrated_mm[k]).collect::<Vec<_>>()))
         .collect();
     Ok(CalibrationEval {
-        reference_pose,
+        reference_poses: reference_poses.to_vec(),
         ridges: ridges.to_vec(),
         rows,
         mean_uncalibrated_mm,

@@ -70,9 +70,10 @@ pub use report::{
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,
-    SIMULATED_COLOR, SimulatedDrape, StoredSequence, compare_path, comparison_image,
-    material_from_omega, numbered_path, resolve_frames, resolve_material, resolve_pose,
-    simulate_drape, simulate_sequence, slug, stored_sequence, vertex_errors_mm,
+    SHIPPED_TRAINING_FRAMES, SIMULATED_COLOR, SimulatedDrape, StoredSequence, compare_path,
+    comparison_image, material_from_omega, numbered_path, resolve_frames, resolve_material,
+    resolve_pose, simulate_drape, simulate_sequence, slug, stored_sequence, training_motion_frames,
+    vertex_errors_mm,
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use stress::{FAR_FROM_BODY, StressReport, stress_predictor};

@@ -86,6 +86,22 @@ pub fn resolve_frames(pose_file: Option<&str>, frames: &str) -> Result<Vec<(usiz
     Ok(range.clone().zip(poses[range].iter().cloned()).collect())
 }
 
+/// The frames of the shipped model's training motion: [`DEFAULT_MOTION_SEED`],
+/// [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm clearance, the poses of
+/// `garmatnet simulate --poses 200 --seed 0`. `frames` as in [`resolve_frames`].
+///
+/// # Errors
+/// As [`resolve_frames`].
+pub fn training_motion_frames(frames: &str) -> Result<Vec<(usize, Pose)>> {
+    let poses = MotionGenerator::new(DEFAULT_MOTION_SEED, SHIPPED_TRAINING_FRAMES).generate();
+    let range = frame_range(frames, poses.len(), "the shipped model's training motion")?;
+    Ok(range.clone().zip(poses[range].iter().cloned()).collect())
+}
+
+/// The number of frames of the motion the shipped model was trained on
+/// ([`training_motion_frames`]).
+pub const SHIPPED_TRAINING_FRAMES: usize = 200;
+
 /// The poses `text` (`START..END`, `START..=END`, `START..` or `all`) picks of `count`.
 fn frame_range(text: &str, count: usize, source: &str) -> Result<std::ops::Range<usize>> {
     let text = text.trim();
