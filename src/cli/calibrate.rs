@@ -133,9 +133,9 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         .collect();
     weights.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
     outln!(
-        "simulated in {simulated_s:.1} s; at the {} reference poses the nets erred {:.2} mm, \
+        "simulated in {simulated_s:.1} s; at the reference pose{} the nets erred {:.2} mm, \
          the calibrated blend {:.2} mm",
-        calibration.references,
+        if calibration.references == 1 { "" } else { "s" },
         calibration.reference_error_mm,
         calibration.calibrated_reference_error_mm
     )?;
