@@ -92,7 +92,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                 args.omega.as_deref(),
                 "Cotton Poplin",
             )?;
-            (material.clone(), Fabric::Omega(material))
+            (material, Fabric::Omega(material))
         }
     };
     if let Some(fps) = args.fps
