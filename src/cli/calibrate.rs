@@ -201,36 +201,21 @@ pub fn run_eval(args: &EvalCalibrationArgs) -> Result<()> {
             .nearest_training
             .as_ref()
             .map_or_else(|| "-".to_owned(), |(n, d)| format!("{n} ({d:.3})"));
-        let calibrated: Vec<String> = row
-            .calibrated_mm
-            .iter()
-            .map(|e| format!("{e:.2}"))
-            .collect();
-        let reference: Vec<String> = row
-            .calibrated_reference_mm
-            .iter()
-            .map(|e| format!("{e:.2}"))
-            .collect();
         outln!(
             "{} | {nearest} | {} | {:.2} / {} | {:.2} | {}",
             row.material,
             row.poses,
             row.reference_mm,
-            reference.join(" "),
+            millimetres(&row.calibrated_reference_mm, " "),
             row.uncalibrated_mm,
-            calibrated.join(" | ")
+            millimetres(&row.calibrated_mm, " | ")
         )?;
     }
-    let calibrated: Vec<String> = eval
-        .mean_calibrated_mm
-        .iter()
-        .map(|e| format!("{e:.2}"))
-        .collect();
     outln!(
         "mean over {} fabrics: nets {:.2} mm, calibrated {} mm",
         eval.rows.len(),
         eval.mean_uncalibrated_mm,
-        calibrated.join(" / ")
+        millimetres(&eval.mean_calibrated_mm, " / ")
     )?;
     if let Some(out) = &args.out {
         let json = serde_json::to_vec_pretty(&eval)?;
@@ -239,4 +224,10 @@ pub fn run_eval(args: &EvalCalibrationArgs) -> Result<()> {
         outln!("wrote {}", out.display())?;
     }
     Ok(())
+}
+
+/// `values` to two decimals, joined by `separator`.
+fn millimetres(values: &[f64], separator: &str) -> String {
+    let text: Vec<String> = values.iter().map(|e| format!("{e:.2}")).collect();
+    text.join(separator)
 }
