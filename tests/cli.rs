@@ -27,6 +27,41 @@ fn a_closed_stdout_ends_the_command_quietly() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A warning or note on a standard error whose reader has gone is dropped; the command still
+/// does its work and exits 0 (`eprintln!` panicked there).
+#[test]
+fn a_closed_stderr_does_not_end_a_command_that_warns() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    // A pose far past the joint limits: `body` poses it anyway, with a note on stderr.
+    let mut pose = vec![0.0_f64; 72];
+    pose[3] = 3.0;
+    let poses = dir.path().join("pose.json");
+    std::fs::write(&poses, serde_json::to_string(&vec![pose])?)?;
+    let obj = dir.path().join("body.obj");
+    let body = || {
+        let mut command = garmatnet();
+        command
+            .args(["body", "--pose"])
+            .arg(&poses)
+            .arg("--out")
+            .arg(&obj);
+        command
+    };
+    let out = body().output()?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.starts_with("note: "), "{stderr}");
+    std::fs::remove_file(&obj)?;
+    // The same with standard error's reader gone: the note is dropped, the command finishes
+    // (`eprintln!` panicked here, exit 101).
+    let (reader, writer) = std::io::pipe()?;
+    drop(reader);
+    let out = body().stderr(writer).output()?;
+    assert!(out.status.success(), "{:?}", out.status);
+    assert!(garmatnet::core::read_obj(&obj)?.vertex_count() > 0);
+    Ok(())
+}
+
 #[test]
 fn template_writes_a_readable_obj_for_each_resolution() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;

@@ -27,7 +27,7 @@ pub struct BodyArgs {
 pub fn run(args: &BodyArgs) -> Result<()> {
     let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
     if let Err(e) = JointLimits::default().validate(&pose, 1e-6) {
-        eprintln!("note: {e} (the body is posed anyway; garments are only trained within limits)");
+        warnln!("note: {e} (the body is posed anyway; garments are only trained within limits)");
     }
     let mesh = CapsuleBody::smpl_neutral().pose(&pose).mesh();
     write_obj(&args.out, &mesh).with_context(|| format!("writing {}", args.out.display()))?;

@@ -107,7 +107,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             continue;
         }
         if !drape.converged {
-            eprintln!(
+            warnln!(
                 "warning: the simulator's drape at frame {frame} did not meet its residual \
                  tolerance; the calibration fits it as it is"
             );

@@ -152,7 +152,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         let outside = range.outside(&material.to_normalized());
         if !outside.is_empty() {
             let parts: Vec<String> = outside.iter().map(ToString::to_string).collect();
-            eprintln!(
+            warnln!(
                 "warning: the material lies outside the fabrics {} was trained on ({}): the \
                  prediction is an extrapolation, expect larger errors",
                 model_path.display(),
@@ -166,7 +166,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             nearest.name
         )?;
         if distance >= FAR_FROM_TRAINING {
-            eprintln!(
+            warnln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
                  on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
                  erred about twice as much as nearer ones (README, \"The typed API\"): \

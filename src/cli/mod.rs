@@ -10,6 +10,14 @@ macro_rules! outln {
     };
 }
 
+/// `eprintln!` for warnings and notes that must not end the command: written to standard
+/// error, and dropped if it is closed (where `eprintln!` panics).
+macro_rules! warnln {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 pub mod bench;
 pub mod body;
 pub mod calibrate;
@@ -47,6 +55,13 @@ pub fn write_stdout(text: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
         Err(e) => Err(anyhow::Error::new(e).context("writing to standard output")),
     }
+}
+
+/// Writes `text` to standard error, ignoring a failed write (a closed stderr); [`warnln!`]'s
+/// body.
+pub fn write_stderr(text: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let _ = std::io::stderr().lock().write_fmt(text);
 }
 
 /// Writes `view` to each of `outs` and says what was written: one animation file, with
