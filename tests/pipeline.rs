@@ -389,6 +389,49 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         after < at_reference,
         "{after} >= {at_reference} (mean at other poses {before})"
     );
+    // Measured at the held-out frames alone (Table 2's poses): four of the ten, and the same
+    // nets' error there as a per-pose mean would give.
+    let held_out = garmatnet(
+        &[
+            "eval-calibration",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--reference-poses",
+            "2,3",
+            "--test-poses",
+            "0,1,6,7",
+            "--out",
+            "calibration-held-out.json",
+        ],
+        dir,
+    )?;
+    assert!(held_out.contains("mean over 7 fabrics"), "{held_out}");
+    let held_out: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("calibration-held-out.json"))?)?;
+    for (row, all) in held_out["rows"].as_array().expect("rows").iter().zip(rows) {
+        assert_eq!(row["poses"], 4, "{row}");
+        assert_eq!(row["reference_mm"], all["reference_mm"], "{row}");
+    }
+    // A reference pose is a fit, not a test.
+    let both = garmatnet(
+        &[
+            "eval-calibration",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--reference-poses",
+            "2,3",
+            "--test-poses",
+            "0,3",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(both.contains("both a reference and a test pose"), "{both}");
 
     // The harness: the simulator at the dataset's own budget (10 here), warm-started from the
     // previous frame's ground truth, must reproduce the stored sample.

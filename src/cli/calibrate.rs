@@ -170,6 +170,11 @@ pub struct EvalCalibrationArgs {
     /// Ridge weights to try, separated by commas.
     #[arg(long, default_value = "0.1", value_delimiter = ',')]
     pub ridge: Vec<f64>,
+    /// The dataset's pose indices to measure at, separated by commas (default: every finished
+    /// pose but the references). Table 2's held-out frames of a 200-frame dataset:
+    /// `0,10,...,190`.
+    #[arg(long, value_delimiter = ',')]
+    pub test_poses: Option<Vec<usize>>,
     /// Also write the result as JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -189,7 +194,13 @@ pub fn run_eval(args: &EvalCalibrationArgs) -> Result<()> {
             enabled: false,
             ..garmatnet::model::PushOut::default()
         });
-    let eval = evaluate_calibration(&data, &predictor, &args.reference_poses, &args.ridge)?;
+    let eval = evaluate_calibration(
+        &data,
+        &predictor,
+        &args.reference_poses,
+        &args.ridge,
+        args.test_poses.as_deref(),
+    )?;
     let ridges: Vec<String> = eval.ridges.iter().map(|r| format!("λ={r}")).collect();
     outln!(
         "fabric | nearest training fabric (distance) | poses | reference: nets / calibrated | \

@@ -19,7 +19,7 @@ pub struct CalibrationRow {
     /// The model's training fabric nearest in normalised ω, and that distance (absent when
     /// the model records none).
     pub nearest_training: Option<(String, Real)>,
-    /// How many poses were predicted (every finished pose but the references).
+    /// How many poses were predicted (the finished test poses).
     pub poses: usize,
     /// Mean per-vertex error of the uncalibrated nets over those poses (mm).
     pub uncalibrated_mm: Real,
@@ -48,30 +48,49 @@ pub struct CalibrationEval {
 
 /// Calibrates every fabric of `data` with its drapes at `reference_poses` (once per ridge
 /// weight in `ridges`) and measures the mean per-vertex error of the full prediction, before
-/// push-out, at every other finished pose, calibrated and not. Fabrics without every
-/// reference drape finished are skipped.
+/// push-out, at the finished poses of `test_poses` (every finished pose but the references
+/// when `None`; Table 2's are the held-out frames), calibrated and not. Fabrics without
+/// every reference drape finished, or without a finished test pose, are skipped.
 ///
 /// # Errors
-/// [`Error::InvalidConfig`] for no ridge weights or reference poses, a reference pose past
-/// the dataset's poses or no fabric with its reference drapes finished; the model's errors
-/// (e.g. a model that records no training fabrics, or another garment template);
-/// unreadable samples.
+/// [`Error::InvalidConfig`] for no ridge weights or reference poses, a reference or test
+/// pose past the dataset's poses, a test pose that is also a reference (a fit, not a test),
+/// an empty list of test poses, or no fabric with its reference drapes and a test pose
+/// finished; the model's errors (e.g. a model that records no training fabrics, or another
+/// garment template); unreadable samples.
 pub fn evaluate_calibration(
     data: &TrainingDataset,
     predictor: &Predictor,
     reference_poses: &[usize],
     ridges: &[Real],
+    test_poses: Option<&[usize]>,
 ) -> Result<CalibrationEval> {
-    if ridges.is_empty() || reference_poses.is_empty() {
+    if ridges.is_empty() || reference_poses.is_empty() || test_poses.is_some_and(<[_]>::is_empty) {
         return Err(Error::InvalidConfig(
-            "give at least one ridge weight and one reference pose".into(),
+            "give at least one ridge weight, one reference pose and one test pose".into(),
         ));
     }
     let spec = data.spec();
-    if let Some(&past) = reference_poses.iter().find(|&&p| p >= spec.poses.len()) {
+    let named = [
+        ("reference", reference_poses),
+        ("test", test_poses.unwrap_or(&[])),
+    ];
+    for (what, poses) in named {
+        if let Some(&past) = poses.iter().find(|&&p| p >= spec.poses.len()) {
+            return Err(Error::InvalidConfig(format!(
+                "{what} pose {past} is past the dataset's {} poses",
+                spec.poses.len()
+            )));
+        }
+    }
+    if let Some(&both) = test_poses
+        .unwrap_or(&[])
+        .iter()
+        .find(|p| reference_poses.contains(p))
+    {
         return Err(Error::InvalidConfig(format!(
-            "reference pose {past} is past the dataset's {} poses",
-            spec.poses.len()
+            "pose {both} is both a reference and a test pose: the calibration is fitted there, \
+             so measure it at other poses"
         )));
     }
     let mut rows = Vec::new();
@@ -82,7 +101,14 @@ pub fn evaluate_calibration(
             .filter(|r| r.material == m)
             .map(|r| r.pose)
             .collect();
-        if !reference_poses.iter().all(|p| finished.contains(p)) {
+        let tested: Vec<usize> = finished
+            .iter()
+            .copied()
+            .filter(|p| {
+                !reference_poses.contains(p) && test_poses.is_none_or(|test| test.contains(p))
+            })
+            .collect();
+        if tested.is_empty() || !reference_poses.iter().all(|p| finished.contains(p)) {
             continue;
         }
         let fabric = Material::from_array(material.omega)?;
@@ -110,10 +136,6 @@ pub fn evaluate_calibration(
         let omega = material.omega_normalized;
         let mut uncalibrated = 0.0;
         let mut calibrated = vec![0.0; ridges.len()];
-        let tested: Vec<usize> = finished
-            .into_iter()
-            .filter(|p| !reference_poses.contains(p))
-            .collect();
         for &p in &tested {
             let truth = data.truth(SampleKey {
                 material: m,
@@ -127,7 +149,7 @@ pub fn evaluate_calibration(
                 *sum += mean(&vertex_errors_mm(&mesh.vertices, &truth.simulated)?);
             }
         }
-        let count = tested.len().max(1) as Real;
+        let count = tested.len() as Real;
         rows.push(CalibrationRow {
             material: material.name.clone(),
             nearest_training: predictor
@@ -145,7 +167,8 @@ pub fn evaluate_calibration(
     }
     if rows.is_empty() {
         return Err(Error::InvalidConfig(format!(
-            "no fabric of the dataset has finished drapes at reference poses {reference_poses:?}"
+            "no fabric of the dataset has finished drapes at reference poses \
+             {reference_poses:?} and at a test pose"
         )));
     }
     let mean_uncalibrated_mm = mean(&rows.iter().map(|r| r.uncalibrated_mm).collect::<Vec<_>>());
