@@ -63,9 +63,8 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) if e.is::<cli::StdoutClosed>() => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            use std::io::Write as _;
             // Not `eprintln!`, which panics when standard error is closed too.
-            let _ = writeln!(std::io::stderr(), "Error: {e:?}");
+            cli::write_stderr(format_args!("Error: {e:?}\n"));
             std::process::ExitCode::FAILURE
         }
     }

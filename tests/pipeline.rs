@@ -432,6 +432,24 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     .unwrap_err()
     .to_string();
     assert!(both.contains("both a reference and a test pose"), "{both}");
+    let past = garmatnet(
+        &[
+            "eval-calibration",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--test-poses",
+            "12",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        past.contains("test pose 12 is past the dataset's 12 poses"),
+        "{past}"
+    );
 
     // The harness: the simulator at the dataset's own budget (10 here), warm-started from the
     // previous frame's ground truth, must reproduce the stored sample.
