@@ -342,22 +342,24 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
 
     // Fabric calibration: every fabric calibrated with its drapes at two poses the model
     // trained on, its other ten poses predicted with and without it.
-    let calibrated = garmatnet(
-        &[
+    let eval_calibration = |extra: &[&str]| {
+        let base = [
             "eval-calibration",
             "--data",
             "data",
             "--model",
             "model.safetensors",
-            "--reference-poses",
-            "2,3",
-            "--ridge",
-            "0.1,1e6",
-            "--out",
-            "calibration.json",
-        ],
-        dir,
-    )?;
+        ];
+        garmatnet(&[&base[..], extra].concat(), dir)
+    };
+    let calibrated = eval_calibration(&[
+        "--reference-poses",
+        "2,3",
+        "--ridge",
+        "0.1,1e6",
+        "--out",
+        "calibration.json",
+    ])?;
     assert!(calibrated.contains("mean over 7 fabrics"), "{calibrated}");
     let calibration: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("calibration.json"))?)?;
@@ -389,24 +391,16 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         after < at_reference,
         "{after} >= {at_reference} (mean at other poses {before})"
     );
-    // Measured at the held-out frames alone (Table 2's poses): four of the ten, and the same
-    // nets' error there as a per-pose mean would give.
-    let held_out = garmatnet(
-        &[
-            "eval-calibration",
-            "--data",
-            "data",
-            "--model",
-            "model.safetensors",
-            "--reference-poses",
-            "2,3",
-            "--test-poses",
-            "0,1,6,7",
-            "--out",
-            "calibration-held-out.json",
-        ],
-        dir,
-    )?;
+    // Measured at the held-out frames alone (Table 2's poses): four of the ten, with the same
+    // fit at the reference poses.
+    let held_out = eval_calibration(&[
+        "--reference-poses",
+        "2,3",
+        "--test-poses",
+        "0,1,6,7",
+        "--out",
+        "calibration-held-out.json",
+    ])?;
     assert!(held_out.contains("mean over 7 fabrics"), "{held_out}");
     let held_out: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("calibration-held-out.json"))?)?;
@@ -415,37 +409,13 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         assert_eq!(row["reference_mm"], all["reference_mm"], "{row}");
     }
     // A reference pose is a fit, not a test.
-    let both = garmatnet(
-        &[
-            "eval-calibration",
-            "--data",
-            "data",
-            "--model",
-            "model.safetensors",
-            "--reference-poses",
-            "2,3",
-            "--test-poses",
-            "0,3",
-        ],
-        dir,
-    )
-    .unwrap_err()
-    .to_string();
+    let both = eval_calibration(&["--reference-poses", "2,3", "--test-poses", "0,3"])
+        .unwrap_err()
+        .to_string();
     assert!(both.contains("both a reference and a test pose"), "{both}");
-    let past = garmatnet(
-        &[
-            "eval-calibration",
-            "--data",
-            "data",
-            "--model",
-            "model.safetensors",
-            "--test-poses",
-            "12",
-        ],
-        dir,
-    )
-    .unwrap_err()
-    .to_string();
+    let past = eval_calibration(&["--test-poses", "12"])
+        .unwrap_err()
+        .to_string();
     assert!(
         past.contains("test pose 12 is past the dataset's 12 poses"),
         "{past}"

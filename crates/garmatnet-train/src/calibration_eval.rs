@@ -71,11 +71,8 @@ pub fn evaluate_calibration(
         ));
     }
     let spec = data.spec();
-    let named = [
-        ("reference", reference_poses),
-        ("test", test_poses.unwrap_or(&[])),
-    ];
-    for (what, poses) in named {
+    let given_tests = test_poses.unwrap_or(&[]);
+    for (what, poses) in [("reference", reference_poses), ("test", given_tests)] {
         if let Some(&past) = poses.iter().find(|&&p| p >= spec.poses.len()) {
             return Err(Error::InvalidConfig(format!(
                 "{what} pose {past} is past the dataset's {} poses",
@@ -83,11 +80,7 @@ pub fn evaluate_calibration(
             )));
         }
     }
-    if let Some(&both) = test_poses
-        .unwrap_or(&[])
-        .iter()
-        .find(|p| reference_poses.contains(p))
-    {
+    if let Some(&both) = given_tests.iter().find(|p| reference_poses.contains(p)) {
         return Err(Error::InvalidConfig(format!(
             "pose {both} is both a reference and a test pose: the calibration is fitted there, \
              so measure it at other poses"
