@@ -593,6 +593,64 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
     Ok(())
 }
 
+/// `--materials none` drapes the random fabrics alone; with nothing to drape, or beside other
+/// names, it is refused before anything is written.
+#[test]
+fn simulate_materials_none_drapes_only_the_random_fabrics() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let quick_arg = quick.to_string_lossy().into_owned();
+    let args = |materials: &'static str, random: &'static str, out: &str| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "simulate",
+            "--materials",
+            materials,
+            "--random-materials",
+            random,
+            "--material-seed",
+            "5",
+            "--poses",
+            "1",
+            "--resolution",
+            "coarse",
+            "--quiet",
+            "--solver",
+        ]
+        .map(String::from)
+        .to_vec();
+        a.extend([quick_arg.clone(), "--out".into(), out.into()]);
+        a
+    };
+    let out = dir.path().join("random-only");
+    let status = garmatnet()
+        .args(args("none", "2", &out.to_string_lossy()))
+        .status()?;
+    anyhow::ensure!(status.success(), "simulate --materials none failed");
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json"))?)?;
+    let names: Vec<&str> = manifest["materials"]
+        .as_array()
+        .expect("a material list")
+        .iter()
+        .filter_map(|m| m["name"].as_str())
+        .collect();
+    assert_eq!(names, ["random-5-000", "random-5-001"]);
+    assert_eq!(manifest["samples"].as_array().map(Vec::len), Some(2));
+
+    let refused = dir.path().join("refused");
+    let refused_arg = refused.to_string_lossy().into_owned();
+    for (materials, random, hint) in [
+        ("none", "0", "add --random-materials N"),
+        ("none,Linen", "2", "stands alone"),
+        ("", "2", "or `none`"),
+    ] {
+        let a = args(materials, random, &refused_arg);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        assert_fails_cleanly(&a, hint, &refused)?;
+    }
+    Ok(())
+}
+
 #[test]
 fn simulate_draws_random_materials_between_presets() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;

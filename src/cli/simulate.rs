@@ -21,7 +21,8 @@ pub struct SimulateArgs {
     /// `all` (the presets), or a comma-separated list of preset names, of fabrics of a
     /// `--reuse` dataset (e.g. `random-0-003`, with the ω it was made with) and of `reused`
     /// (every fabric of the `--reuse` datasets), so datasets of different fabrics merge
-    /// into one: `--materials all,reused --reuse A --reuse B`.
+    /// into one: `--materials all,reused --reuse A --reuse B`; or `none`, to drape only the
+    /// `--random-materials`.
     #[arg(long, default_value = "all")]
     pub materials: String,
     /// Also drape this many random materials, uniform in the normalised ω cube (after the
@@ -110,7 +111,8 @@ fn add_fabric(
 /// The fabrics `--materials` (or `--random-between`) names: `all` (the presets) and preset
 /// names, plus fabrics of the datasets in `reuse` by name (with the ω they were made with)
 /// and `reused` for all of them, in the order given. A fabric reached twice through `all` or `reused` is listed once; one named
-/// twice, or two of one name with different ω, is an error.
+/// twice, or two of one name with different ω, is an error. `none` alone names no fabric
+/// (an empty list: the caller decides whether that leaves anything to do).
 pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, Material)>> {
     let mut reused: Vec<(String, Material)> = Vec::new();
     for dir in reuse {
@@ -133,9 +135,15 @@ pub fn resolve_materials(spec: &str, reuse: &[PathBuf]) -> Result<Vec<(String, M
         .collect();
     if items.is_empty() {
         bail!(
-            "no fabric named: give `all`, preset names (see `garmatnet materials`), or fabrics \
-             of a --reuse dataset"
+            "no fabric named: give `all`, preset names (see `garmatnet materials`), fabrics \
+             of a --reuse dataset, or `none`"
         );
+    }
+    if items.iter().any(|i| i.eq_ignore_ascii_case("none")) {
+        if items.len() > 1 {
+            bail!("`none` names no fabric, so it stands alone: drop it or the other names");
+        }
+        return Ok(Vec::new());
     }
     for item in items {
         if item.eq_ignore_ascii_case("all") {
@@ -249,6 +257,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         .into_iter()
         .map(|(name, material, _)| (name, material))
         .collect();
+    if materials.is_empty() {
+        bail!("--materials none leaves nothing to drape: add --random-materials N");
+    }
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
         Ok(n) => {
