@@ -506,6 +506,37 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
     Ok(())
 }
 
+/// `simulate` arguments for a toy dataset of `materials` and `random` random fabrics drawn
+/// with `seed`: one pose, the coarse shirt, the `quick` solver settings, no progress.
+fn toy_random_simulate(
+    materials: &str,
+    random: &str,
+    seed: &str,
+    quick: &std::path::Path,
+    out: &std::path::Path,
+) -> Vec<String> {
+    [
+        "simulate",
+        "--materials",
+        materials,
+        "--random-materials",
+        random,
+        "--material-seed",
+        seed,
+        "--poses",
+        "1",
+        "--resolution",
+        "coarse",
+        "--quiet",
+        "--solver",
+        &quick.to_string_lossy(),
+        "--out",
+        &out.to_string_lossy(),
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
 /// Solver settings for toy datasets: 5 Newton iterations, one intermediate step.
 fn quick_solver(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
     let quick = dir.join("quick.json");
@@ -522,24 +553,13 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
     let quick = quick_solver(dir.path())?;
     let simulate = |out: &str, seed: &str| -> anyhow::Result<serde_json::Value> {
         let status = garmatnet()
-            .args([
-                "simulate",
-                "--materials",
+            .args(toy_random_simulate(
                 "Cotton Poplin",
-                "--random-materials",
                 "2",
-                "--material-seed",
                 seed,
-                "--poses",
-                "1",
-                "--resolution",
-                "coarse",
-                "--quiet",
-                "--solver",
-            ])
-            .arg(&quick)
-            .arg("--out")
-            .arg(dir.path().join(out))
+                &quick,
+                &dir.path().join(out),
+            ))
             .status()?;
         anyhow::ensure!(status.success(), "simulate {out} failed");
         Ok(serde_json::from_slice(&std::fs::read(
@@ -599,31 +619,9 @@ fn simulate_adds_seeded_random_materials_after_the_presets() -> anyhow::Result<(
 fn simulate_materials_none_drapes_only_the_random_fabrics() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;
-    let quick_arg = quick.to_string_lossy().into_owned();
-    let args = |materials: &'static str, random: &'static str, out: &str| -> Vec<String> {
-        let mut a: Vec<String> = [
-            "simulate",
-            "--materials",
-            materials,
-            "--random-materials",
-            random,
-            "--material-seed",
-            "5",
-            "--poses",
-            "1",
-            "--resolution",
-            "coarse",
-            "--quiet",
-            "--solver",
-        ]
-        .map(String::from)
-        .to_vec();
-        a.extend([quick_arg.clone(), "--out".into(), out.into()]);
-        a
-    };
     let out = dir.path().join("random-only");
     let status = garmatnet()
-        .args(args("none", "2", &out.to_string_lossy()))
+        .args(toy_random_simulate("none", "2", "5", &quick, &out))
         .status()?;
     anyhow::ensure!(status.success(), "simulate --materials none failed");
     let manifest: serde_json::Value =
@@ -638,13 +636,12 @@ fn simulate_materials_none_drapes_only_the_random_fabrics() -> anyhow::Result<()
     assert_eq!(manifest["samples"].as_array().map(Vec::len), Some(2));
 
     let refused = dir.path().join("refused");
-    let refused_arg = refused.to_string_lossy().into_owned();
     for (materials, random, hint) in [
         ("none", "0", "add --random-materials N"),
         ("none,Linen", "2", "stands alone"),
         ("", "2", "or `none`"),
     ] {
-        let a = args(materials, random, &refused_arg);
+        let a = toy_random_simulate(materials, random, "5", &quick, &refused);
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
         assert_fails_cleanly(&a, hint, &refused)?;
     }
