@@ -1,7 +1,9 @@
-//! Run: `cargo bench --bench predict` (add `--features wgpu` to include the GPU when present)
+//! Run: `cargo bench --bench predict` (add `--features wgpu` to time the GPU too: the same
+//! groups again, named `..._gpu...`, when a wgpu adapter answers; without one they are skipped
+//! with a message)
 //!
 //! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
-//! batch 1 and 64, `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
+//! batch 1 and 64 (and 1024 with the rank-128 head), `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
 //! the paper-sized nets (hidden 512/64/512), full-width and with a rank-128 output head; a 100-character `Scene` with mixed detail
 //! where 10 % of the characters change each frame; and 120 frames of the built-in motion in
 //! one `predict_sequence` call (batched nets, each frame pushed out of its posed body), as
@@ -52,29 +54,79 @@ fn inputs(count: usize) -> Vec<(Pose, Material)> {
         .collect()
 }
 
+/// The devices to time, with the name their groups carry: the CPU always; with the `wgpu`
+/// feature also the GPU, when a wgpu adapter answers a small round trip.
+fn devices() -> Vec<(&'static str, Device)> {
+    #[allow(unused_mut)]
+    let mut devices = vec![("cpu", Device::flex())];
+    #[cfg(feature = "wgpu")]
+    match usable_gpu() {
+        Some(gpu) => devices.push(("gpu", gpu)),
+        None => eprintln!("no usable wgpu adapter: the GPU groups are skipped"),
+    }
+    devices
+}
+
+/// The GPU, if it runs a kernel and reads the result back (wgpu starts lazily and panics
+/// without an adapter or a working driver, hence the `catch_unwind`).
+#[cfg(feature = "wgpu")]
+fn usable_gpu() -> Option<Device> {
+    let gpu = garmatnet::select_device("gpu").ok()?;
+    let probe = gpu.clone();
+    std::panic::catch_unwind(move || {
+        (burn::prelude::Tensor::<1>::from_floats([1.0f32, 2.0], &probe) * 2.0)
+            .into_data()
+            .try_to_vec::<f32>()
+            .ok()
+    })
+    .ok()
+    .flatten()
+    .filter(|v| v == &[2.0, 4.0])
+    .map(|_| gpu)
+}
+
+/// The name of a device's variant of `group`: the CPU keeps the names it always had.
+fn group_name(group: &str, device: &str) -> String {
+    if device == "cpu" {
+        group.to_string()
+    } else {
+        format!("{group}_{device}")
+    }
+}
+
 fn bench_predict(c: &mut Criterion) {
-    let device = Device::flex();
+    for (device_name, device) in devices() {
+        bench_predict_on(c, device_name, &device);
+    }
+}
+
+fn bench_predict_on(c: &mut Criterion, device_name: &str, device: &Device) {
     for (resolution, rank) in [
         (Resolution::Default, None),
         (Resolution::Paper, None),
         (Resolution::Default, Some(128)),
         (Resolution::Paper, Some(128)),
     ] {
-        let (predictor, mb) = predictor(resolution, rank, &device);
+        let (predictor, mb) = predictor(resolution, rank, device);
         let name = match rank {
             Some(k) => format!("{resolution}_rank{k}"),
             None => resolution.to_string(),
         };
         eprintln!(
-            "{name}: {} vertices, model {mb:.1} MB (f32)",
+            "{device_name} {name}: {} vertices, model {mb:.1} MB (f32)",
             predictor.vertex_count()
         );
-        let mut group = c.benchmark_group(format!("predict_cpu_{name}"));
+        let mut group = c.benchmark_group(format!("predict_{device_name}_{name}"));
         let one = inputs(1);
-        let batch: Vec<_> = inputs(64)
-            .into_iter()
-            .map(|(p, m)| (p, m.to_normalized()))
-            .collect();
+        let batch_of = |n| -> Vec<_> {
+            inputs(n)
+                .into_iter()
+                .map(|(p, m)| (p, m.to_normalized()))
+                .collect()
+        };
+        let batch = batch_of(64);
+        // The shipped head also at batch 1024, where a GPU has work enough to pay off.
+        let large = rank.map(|_| batch_of(1024));
         for detail in [Detail::Full, Detail::Smooth] {
             group.throughput(Throughput::Elements(1));
             group.bench_function(BenchmarkId::new(format!("{detail:?}"), "batch1"), |b| {
@@ -88,18 +140,29 @@ fn bench_predict(c: &mut Criterion) {
             group.bench_function(BenchmarkId::new(format!("{detail:?}"), "batch64"), |b| {
                 b.iter(|| predictor.predict_batch(&batch, detail).expect("prediction"))
             });
+            if let Some(large) = &large {
+                group.throughput(Throughput::Elements(large.len() as u64));
+                group.bench_function(BenchmarkId::new(format!("{detail:?}"), "batch1024"), |b| {
+                    b.iter(|| predictor.predict_batch(large, detail).expect("prediction"))
+                });
+            }
         }
         group.finish();
     }
 }
 
 fn bench_sequence(c: &mut Criterion) {
-    let device = Device::flex();
-    let mut group = c.benchmark_group("predict_sequence_120_frames");
+    for (device_name, device) in devices() {
+        bench_sequence_on(c, device_name, &device);
+    }
+}
+
+fn bench_sequence_on(c: &mut Criterion, device_name: &str, device: &Device) {
+    let mut group = c.benchmark_group(group_name("predict_sequence_120_frames", device_name));
     let motion = MotionGenerator::new(0, 120).generate();
     let denim = Material::preset("Denim Heavy").expect("preset");
     for resolution in [Resolution::Default, Resolution::Paper] {
-        let (predictor, _) = predictor(resolution, Some(128), &device);
+        let (predictor, _) = predictor(resolution, Some(128), device);
         group.throughput(Throughput::Elements(motion.len() as u64));
         group.bench_function(
             BenchmarkId::new("Full", format!("{resolution}_rank128")),
@@ -116,8 +179,13 @@ fn bench_sequence(c: &mut Criterion) {
 }
 
 fn bench_scene(c: &mut Criterion) {
-    let device = Device::flex();
-    let (predictor, _) = predictor(Resolution::Default, None, &device);
+    for (device_name, device) in devices() {
+        bench_scene_on(c, device_name, &device);
+    }
+}
+
+fn bench_scene_on(c: &mut Criterion, device_name: &str, device: &Device) {
+    let (predictor, _) = predictor(Resolution::Default, None, device);
     let mut scene = Scene::new();
     let start = inputs(100);
     for (id, (pose, material)) in start.iter().enumerate() {
@@ -133,7 +201,7 @@ fn bench_scene(c: &mut Criterion) {
     scene.update(&predictor).expect("first frame");
     let limits = JointLimits::default();
     let mut rng = SplitMix64::new(4);
-    let mut group = c.benchmark_group("scene_100_characters");
+    let mut group = c.benchmark_group(group_name("scene_100_characters", device_name));
     group.throughput(Throughput::Elements(1));
     group.bench_function("10pct_changing_per_frame", |b| {
         b.iter(|| {
