@@ -1164,3 +1164,53 @@ fn materials_names_each_presets_nearest_training_fabric() -> anyhow::Result<()> 
     );
     Ok(())
 }
+
+/// Where wgpu finds no adapter, `--device gpu` is an error that says what to install (it was
+/// a panic from inside wgpu on first use, exit 101), and `--device auto` drapes on the CPU.
+/// The machine without an adapter is made by hiding the Vulkan and GL loaders behind
+/// `/dev/null` in a private mount namespace (`unshare -m`, which needs root or a user
+/// namespace); where that namespace cannot be made the test says so and checks nothing.
+#[cfg(all(feature = "wgpu", target_os = "linux"))]
+#[test]
+fn gpu_without_an_adapter_is_an_error_and_auto_uses_the_cpu() -> anyhow::Result<()> {
+    const HIDE_LOADERS: &str = r#"set -e
+for f in $(ldconfig -p | awk '/(libvulkan\.so\.1|libEGL\.so\.1|libGLESv2\.so\.2|libGL\.so\.1) /{print $NF}'); do
+  mount --bind /dev/null "$f"
+done
+exec "$@""#;
+    let namespace_works = Command::new("unshare")
+        .args(["-m", "sh", "-c", HIDE_LOADERS, "sh", "true"])
+        .output()
+        .is_ok_and(|out| out.status.success());
+    if !namespace_works {
+        eprintln!("skipped: `unshare -m` with bind mounts is not permitted here");
+        return Ok(());
+    }
+    let dir = tempfile::tempdir()?;
+    let drape = |device: &str, out: &std::path::Path| {
+        Command::new("unshare")
+            .args(["-m", "sh", "-c", HIDE_LOADERS, "sh"])
+            .arg(env!("CARGO_BIN_EXE_garmatnet"))
+            .args(["drape", "--device", device, "--out"])
+            .arg(out)
+            .output()
+    };
+    let gpu_obj = dir.path().join("gpu.obj");
+    let out = drape("gpu", &gpu_obj)?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("finds no GPU adapter"), "{stderr}");
+    assert!(stderr.contains("or use `cpu`"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!gpu_obj.exists());
+    let auto_obj = dir.path().join("auto.obj");
+    let out = drape("auto", &auto_obj)?;
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        std::fs::read_to_string(&auto_obj)?
+            .lines()
+            .any(|l| l.starts_with("v "))
+    );
+    Ok(())
+}
