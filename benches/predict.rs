@@ -3,9 +3,10 @@
 //! with a message)
 //!
 //! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
-//! batch 1 and 64 (and 1024 with the rank-128 head), `Detail::Full` and `Detail::Smooth`, default and paper resolutions, with
-//! the paper-sized nets (hidden 512/64/512), full-width and with a rank-128 output head; a 100-character `Scene` with mixed detail
-//! where 10 % of the characters change each frame; and 120 frames of the built-in motion in
+//! batch 1 and 64 (and 1024 with the rank-128 head), `Detail::Full` and `Detail::Smooth`,
+//! default and paper resolutions, with the paper-sized nets (hidden 512/64/512), full-width
+//! and with a rank-128 output head; a 100-character `Scene` with mixed detail where 10 % of
+//! the characters change each frame; and 120 frames of the built-in motion in
 //! one `predict_sequence` call (batched nets, each frame pushed out of its posed body), as
 //! `garmatnet drape --frames` predicts them. Weights are untrained: speed does not depend on
 //! their values.
@@ -55,16 +56,19 @@ fn inputs(count: usize) -> Vec<(Pose, Material)> {
 }
 
 /// The devices to time, with the name their groups carry: the CPU always; with the `wgpu`
-/// feature also the GPU, when a wgpu adapter answers a small round trip.
-fn devices() -> Vec<(&'static str, Device)> {
-    #[allow(unused_mut)]
-    let mut devices = vec![("cpu", Device::flex())];
-    #[cfg(feature = "wgpu")]
-    match usable_gpu() {
-        Some(gpu) => devices.push(("gpu", gpu)),
-        None => eprintln!("no usable wgpu adapter: the GPU groups are skipped"),
-    }
-    devices
+/// feature also the GPU, when a wgpu adapter runs a probe kernel (probed once per run).
+fn devices() -> &'static [(&'static str, Device)] {
+    static DEVICES: std::sync::OnceLock<Vec<(&'static str, Device)>> = std::sync::OnceLock::new();
+    DEVICES.get_or_init(|| {
+        #[allow(unused_mut)]
+        let mut devices = vec![("cpu", Device::flex())];
+        #[cfg(feature = "wgpu")]
+        match usable_gpu() {
+            Some(gpu) => devices.push(("gpu", gpu)),
+            None => eprintln!("no usable wgpu adapter: the GPU groups are skipped"),
+        }
+        devices
+    })
 }
 
 /// The GPU, if it runs a kernel and reads the result back (wgpu starts lazily and panics
@@ -96,7 +100,7 @@ fn group_name(group: &str, device: &str) -> String {
 
 fn bench_predict(c: &mut Criterion) {
     for (device_name, device) in devices() {
-        bench_predict_on(c, device_name, &device);
+        bench_predict_on(c, device_name, device);
     }
 }
 
@@ -153,7 +157,7 @@ fn bench_predict_on(c: &mut Criterion, device_name: &str, device: &Device) {
 
 fn bench_sequence(c: &mut Criterion) {
     for (device_name, device) in devices() {
-        bench_sequence_on(c, device_name, &device);
+        bench_sequence_on(c, device_name, device);
     }
 }
 
@@ -180,7 +184,7 @@ fn bench_sequence_on(c: &mut Criterion, device_name: &str, device: &Device) {
 
 fn bench_scene(c: &mut Criterion) {
     for (device_name, device) in devices() {
-        bench_scene_on(c, device_name, &device);
+        bench_scene_on(c, device_name, device);
     }
 }
 
