@@ -1173,17 +1173,23 @@ fn materials_names_each_presets_nearest_training_fabric() -> anyhow::Result<()> 
 #[cfg(all(feature = "wgpu", target_os = "linux"))]
 #[test]
 fn gpu_without_an_adapter_is_an_error_and_auto_uses_the_cpu() -> anyhow::Result<()> {
+    // Fails (so the test is skipped) where nothing could be hidden, e.g. without `ldconfig`.
     const HIDE_LOADERS: &str = r#"set -e
-for f in $(ldconfig -p | awk '/(libvulkan\.so\.1|libEGL\.so\.1|libGLESv2\.so\.2|libGL\.so\.1) /{print $NF}'); do
+hidden=0
+for f in $( (ldconfig -p || /sbin/ldconfig -p) 2>/dev/null | awk '/(libvulkan\.so\.1|libEGL\.so\.1|libGLESv2\.so\.2|libGL\.so\.1) /{print $NF}'); do
   mount --bind /dev/null "$f"
+  hidden=$((hidden + 1))
 done
+[ "$hidden" -gt 0 ]
 exec "$@""#;
     let namespace_works = Command::new("unshare")
         .args(["-m", "sh", "-c", HIDE_LOADERS, "sh", "true"])
         .output()
         .is_ok_and(|out| out.status.success());
     if !namespace_works {
-        eprintln!("skipped: `unshare -m` with bind mounts is not permitted here");
+        eprintln!(
+            "skipped: no Vulkan or GL loader could be hidden here (`unshare -m`, bind mounts)"
+        );
         return Ok(());
     }
     let dir = tempfile::tempdir()?;
