@@ -23,8 +23,7 @@ pub fn select_device(name: &str) -> Result<Device> {
     match name.trim().to_ascii_lowercase().as_str() {
         "cpu" => Ok(Device::flex()),
         "gpu" => gpu_device(),
-        "auto" if hardware_gpu() => gpu_device(),
-        "auto" => Ok(Device::flex()),
+        "auto" => Ok(auto_device()),
         other => Err(garmatnet_core::Error::InvalidArgument(format!(
             "unknown device `{other}`; use `cpu`, `gpu` or `auto`"
         ))
@@ -45,6 +44,16 @@ fn gpu_device() -> Result<Device> {
     Ok(Device::wgpu(DeviceKind::DefaultDevice))
 }
 
+/// A hardware GPU when this build has wgpu and wgpu lists one, else the CPU (one listing of
+/// the adapters).
+fn auto_device() -> Device {
+    #[cfg(feature = "wgpu")]
+    if hardware_gpu() {
+        return Device::wgpu(DeviceKind::DefaultDevice);
+    }
+    Device::flex()
+}
+
 /// Whether wgpu finds a hardware adapter: a discrete, integrated or virtual GPU, not a
 /// software rasteriser (wgpu lists those as CPUs).
 #[cfg(feature = "wgpu")]
@@ -57,11 +66,6 @@ fn hardware_gpu() -> bool {
     ]
     .into_iter()
     .any(|kind| found.contains(&Device::wgpu(kind)))
-}
-
-#[cfg(not(feature = "wgpu"))]
-fn hardware_gpu() -> bool {
-    false
 }
 
 #[cfg(not(feature = "wgpu"))]
@@ -89,9 +93,11 @@ mod tests {
     #[test]
     fn auto_takes_a_hardware_gpu_or_the_cpu() {
         let auto = select_device("auto").unwrap();
-        assert_eq!(auto == Device::flex(), !hardware_gpu());
+        #[cfg(not(feature = "wgpu"))]
+        assert!(auto == Device::flex());
         #[cfg(feature = "wgpu")]
         {
+            assert_eq!(auto == Device::flex(), !hardware_gpu());
             let listed = Device::enumerate(burn::tensor::DeviceType::Wgpu);
             eprintln!("wgpu lists {listed:?}; auto = {auto:?}");
             assert_eq!(select_device("gpu").is_ok(), !listed.is_empty());
