@@ -159,7 +159,7 @@ fn main() -> Result<()> {
                 )?;
                 let errors = vertex_errors_mm(&garment.vertices, &sim.vertices)?;
                 let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-                let truth = TriMesh::new(sim.vertices, garment.faces.clone())?;
+                let truth = TriMesh::new(sim.vertices, garment.faces.to_vec())?;
                 save_png(
                     &args.out.join(format!("{stem}_compare.png")),
                     &comparison_image(&body, &garment, &truth, &errors, 20.0)?,

@@ -234,7 +234,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             },
             sim.wall_ms / predict_ms
         )?;
-        let truth = TriMesh::new(sim.vertices, garment.faces.clone())?;
+        let truth = TriMesh::new(sim.vertices, garment.faces.to_vec())?;
         for out in args
             .out
             .iter()
@@ -385,7 +385,7 @@ fn compare_sequence(
         }
         sim_ms += drape.wall_ms;
         unsettled += usize::from(!drape.converged);
-        simulated.push(TriMesh::new(drape.vertices, garment.faces.clone())?);
+        simulated.push(TriMesh::new(drape.vertices, garment.faces.to_vec())?);
     }
     let n = frames.len() as f64;
     outln!(

@@ -484,7 +484,7 @@ impl Predictor {
                 )?;
                 Ok(GarmentMesh {
                     vertices,
-                    faces: self.faces().to_vec(),
+                    faces: self.shared_faces(),
                 })
             })
             .collect()

@@ -95,7 +95,7 @@ mod tests {
             &Material::preset("denim heavy")?,
             crate::Detail::Full,
         )?;
-        assert_eq!(mesh.faces, garment.rest.faces);
+        assert_eq!(*mesh.faces, *garment.rest.faces);
         Ok(())
     }
 

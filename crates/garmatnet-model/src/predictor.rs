@@ -4,6 +4,7 @@
 //! the predicted displacement D_fitting (+ D_local at full detail), paper eq. (1). With a
 //! canonical-frame model the displacement is rotated into the world by the anchor's frame.
 
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use burn::prelude::*;
@@ -63,8 +64,9 @@ impl std::str::FromStr for Detail {
 pub struct GarmentMesh {
     /// Vertex positions (metres, world frame); never NaN.
     pub vertices: Vec<Vec3>,
-    /// Triangles, counter-clockwise seen from outside (the template's).
-    pub faces: Vec<[u32; 3]>,
+    /// Triangles, counter-clockwise seen from outside: the template's, shared by every mesh
+    /// a [`Predictor`] returns (a long sequence holds one copy, not one per frame).
+    pub faces: Arc<[[u32; 3]]>,
 }
 
 impl GarmentMesh {
@@ -74,7 +76,7 @@ impl GarmentMesh {
     /// As [`TriMesh::new`] (which a prediction always passes: finite vertices, the
     /// template's faces).
     pub fn into_tri_mesh(self) -> Result<TriMesh> {
-        Ok(TriMesh::new(self.vertices, self.faces)?)
+        Ok(TriMesh::new(self.vertices, self.faces.to_vec())?)
     }
 }
 
@@ -144,7 +146,7 @@ static NEXT_PREDICTOR_ID: AtomicU64 = AtomicU64::new(1);
 #[derive(Debug)]
 pub struct Predictor {
     model: GarMatNetModel,
-    faces: Vec<[u32; 3]>,
+    faces: Arc<[[u32; 3]]>,
     anchors: Vec<BodyAnchor>,
     skeleton: Skeleton,
     device: Device,
@@ -209,7 +211,7 @@ impl Predictor {
         let id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
         Ok(Self {
             model,
-            faces,
+            faces: faces.into(),
             anchors,
             skeleton,
             device: device.clone(),
@@ -323,6 +325,11 @@ impl Predictor {
         &self.faces
     }
 
+    /// The template's faces as the meshes this predictor returns share them.
+    pub(crate) fn shared_faces(&self) -> Arc<[[u32; 3]]> {
+        Arc::clone(&self.faces)
+    }
+
     /// The number of garment vertices n.
     #[must_use]
     pub fn vertex_count(&self) -> usize {
@@ -394,7 +401,7 @@ impl Predictor {
                 )?;
                 Ok(GarmentMesh {
                     vertices,
-                    faces: self.faces.clone(),
+                    faces: Arc::clone(&self.faces),
                 })
             })
             .collect()
@@ -893,6 +900,13 @@ mod tests {
             }
         }
         assert!(pushed > 0, "no frame was pushed out of the body");
+        assert!(
+            sequence
+                .iter()
+                .all(|mesh| Arc::ptr_eq(&mesh.faces, &sequence[0].faces)
+                    && *mesh.faces == *p.faces()),
+            "every frame shares the template's one copy of the faces"
+        );
         assert!(
             p.predict_sequence(&[], &silk, Detail::Full)
                 .unwrap()
