@@ -45,7 +45,12 @@ pub enum Error {
         index: usize,
     },
     /// A value lies outside its documented range.
-    #[error("{what} = {value} is outside the allowed range [{min}, {max}]{hint}")]
+    #[error(
+        "{what} = {} is outside the allowed range [{}, {}]{hint}",
+        compact(*value),
+        compact(*min),
+        compact(*max)
+    )]
     OutOfRange {
         /// The quantity, with its unit, e.g. `"shear stiffness (N/m)"`.
         what: String,
@@ -108,5 +113,38 @@ pub fn ensure_finite(what: &str, values: impl IntoIterator<Item = f64>) -> Resul
             index,
         }),
         None => Ok(()),
+    }
+}
+
+/// A number as a message shows it: plainly, or in scientific notation when it is tiny or
+/// huge (`1e-300`, not three hundred digits).
+fn compact(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_of_range_values_read_compactly() {
+        let err = Error::OutOfRange {
+            what: "step (radians)".into(),
+            value: 1e-300,
+            min: 1e-4,
+            max: 0.5,
+            hint: String::new(),
+        };
+        assert_eq!(
+            err.to_string(),
+            "step (radians) = 1e-300 is outside the allowed range [0.0001, 0.5]"
+        );
+        assert_eq!(compact(250.0), "250");
+        assert_eq!(compact(0.0), "0");
+        assert_eq!(compact(2e12), "2e12");
     }
 }

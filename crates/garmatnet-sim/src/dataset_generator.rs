@@ -268,13 +268,16 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
 ///
 /// # Errors
 /// [`Error::Interrupted`]; dataset errors (lock held by another process, a different
-/// existing dataset in `out`, unwritable directory); solver errors.
+/// existing dataset in `out`, unwritable directory); settings that fail
+/// [`SequenceSettings::validate`], before anything is written; solver errors.
 pub fn generate_dataset(
     config: &GenerateConfig,
     on_progress: &(dyn Fn(GenerateEvent) + Sync),
     should_stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<GenerateReport> {
     let started = Instant::now();
+    // Before anything is written: a walk with settings out of range could not finish.
+    config.sequence.validate()?;
     let deriver = SampleDeriver::new(config.resolution, config.smoothing)?;
     let (body, garment) = (deriver.body(), deriver.garment());
     let writer = DatasetWriter::open(&config.out, dataset_spec(config, garment)?)?;

@@ -12,7 +12,7 @@ use crate::cloth_model::{ClothModel, SpringSpec};
 use crate::drape_settings::DrapeSettings;
 use crate::drape_solver::{DrapeSolver, DrapeStats};
 use crate::error::Result;
-use crate::motion::{equal_steps, interpolation_steps};
+use crate::motion::{MIN_STEP_RAD, equal_steps, interpolation_steps};
 
 /// The garment as a mass-spring cloth of `material`.
 ///
@@ -121,6 +121,54 @@ impl SequenceSettings {
             settings.drape.contact_hardening = 0.0;
         }
         Ok(settings)
+    }
+}
+
+impl SequenceSettings {
+    /// Checks every setting against the range a walk works in: the drape settings
+    /// ([`DrapeSettings::validate`]), an interpolation step of [`MIN_STEP_RAD`] to π radians
+    /// (a smaller one would cut a pose change into millions of steps), 1 to 10,000
+    /// intermediate iterations and a surface step of 0 (off) to 1 metre.
+    /// [`drape_sequence`] and dataset generation check it before any work; call it to
+    /// check settings read from a file before a long run.
+    ///
+    /// # Errors
+    /// [`CoreError::OutOfRange`] naming the first setting outside its range, with the range.
+    pub fn validate(&self) -> Result<()> {
+        self.drape.validate()?;
+        let checks: [(&str, Real, Real, Real); 3] = [
+            (
+                "sequence setting max_step_rad (radians)",
+                self.max_step_rad,
+                MIN_STEP_RAD,
+                std::f64::consts::PI,
+            ),
+            (
+                "sequence setting intermediate_iterations",
+                self.intermediate_iterations as Real,
+                1.0,
+                10_000.0,
+            ),
+            (
+                "sequence setting max_surface_step (metres; 0 is off)",
+                self.max_surface_step,
+                0.0,
+                1.0,
+            ),
+        ];
+        for (what, value, min, max) in checks {
+            if !(value >= min && value <= max) {
+                return Err(CoreError::OutOfRange {
+                    what: what.into(),
+                    value,
+                    min,
+                    max,
+                    hint: String::new(),
+                }
+                .into());
+            }
+        }
+        Ok(())
     }
 }
 
@@ -388,9 +436,9 @@ pub struct SequenceResume {
 /// every pose. Returns the stats of the rest drape followed by one per pose.
 ///
 /// # Errors
-/// As [`cloth_from_garment`] and [`DrapeSolver::drape`]; an invalid
-/// `settings.max_step_rad` or zero `intermediate_iterations` is
-/// [`CoreError::InvalidArgument`]; any error of `on_sample` stops the walk and is returned.
+/// As [`cloth_from_garment`] and [`DrapeSolver::drape`]; settings that fail
+/// [`SequenceSettings::validate`] are [`CoreError::OutOfRange`]; any error of `on_sample`
+/// stops the walk and is returned.
 pub fn drape_sequence(
     garment: &Garment,
     body: &CapsuleBody,
@@ -400,12 +448,7 @@ pub fn drape_sequence(
     resume: Option<SequenceResume>,
     mut on_sample: impl FnMut(usize, &[Vec3], &DrapeStats) -> Result<()>,
 ) -> Result<Vec<DrapeStats>> {
-    if settings.intermediate_iterations == 0 {
-        return Err(CoreError::InvalidArgument(
-            "intermediate_iterations must be at least 1".into(),
-        )
-        .into());
-    }
+    settings.validate()?;
     let model = cloth_from_garment(garment, material)?;
     let full = settings.drape.clone();
     let quick = DrapeSettings {
@@ -484,4 +527,42 @@ pub fn drape_poses(
         Ok(())
     })?;
     Ok(drapes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sequence_settings_outside_the_walks_range_are_refused_by_name() {
+        assert!(SequenceSettings::default().validate().is_ok());
+        let refused = |settings: SequenceSettings, name: &str| {
+            let err = settings.validate().unwrap_err().to_string();
+            assert!(err.contains(name), "{err}");
+        };
+        refused(
+            SequenceSettings {
+                max_step_rad: 1e-300,
+                ..SequenceSettings::default()
+            },
+            "max_step_rad",
+        );
+        refused(
+            SequenceSettings {
+                intermediate_iterations: 0,
+                ..SequenceSettings::default()
+            },
+            "intermediate_iterations",
+        );
+        refused(
+            SequenceSettings {
+                max_surface_step: Real::NAN,
+                ..SequenceSettings::default()
+            },
+            "max_surface_step",
+        );
+        let mut bad_drape = SequenceSettings::default();
+        bad_drape.drape.max_iterations = 0;
+        refused(bad_drape, "max_iterations");
+    }
 }

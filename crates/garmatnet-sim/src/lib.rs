@@ -48,7 +48,8 @@ pub use manifest::{
     sample_stem,
 };
 pub use motion::{
-    MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps, rest_deviation,
+    MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,
+    rest_deviation,
 };
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;

@@ -426,16 +426,22 @@ pub fn extreme_poses(poses: &[Pose], k: usize) -> Vec<usize> {
     scored.into_iter().take(k).map(|(i, _)| i).collect()
 }
 
+/// Smallest interpolation step (radians) [`interpolation_steps`] accepts: a joint's largest
+/// turn, 2π, then takes at most about 63,000 steps.
+pub const MIN_STEP_RAD: Real = 1e-4;
+
 /// Intermediate poses from `from` to `to` (slerp per joint) such that no joint turns more than
 /// `max_step_rad` between consecutive poses. `from` is not included; `to` is the last element
 /// (the result is just `[to]` when the poses are already that close).
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] unless `max_step_rad` is finite and positive.
+/// [`Error::InvalidArgument`] unless `max_step_rad` is finite and at least
+/// [`MIN_STEP_RAD`].
 pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result<Vec<Pose>> {
-    if !(max_step_rad.is_finite() && max_step_rad > 0.0) {
+    if !(max_step_rad.is_finite() && max_step_rad >= MIN_STEP_RAD) {
         return Err(Error::InvalidArgument(format!(
-            "interpolation step must be a positive number of radians, got {max_step_rad}"
+            "interpolation step must be a finite number of radians of at least \
+             {MIN_STEP_RAD}, got {max_step_rad}"
         )));
     }
     let total = from.max_joint_angle_to(to);
@@ -655,6 +661,12 @@ mod tests {
             interpolation_steps(&a, &b, f64::NAN),
             Err(Error::InvalidArgument(_))
         ));
+        // So small a step would cut the turn into ~10^300 poses: refused, not allocated.
+        assert!(matches!(
+            interpolation_steps(&a, &b, 1e-300),
+            Err(Error::InvalidArgument(_))
+        ));
+        assert!(interpolation_steps(&a, &b, MIN_STEP_RAD).is_ok());
     }
 
     proptest! {

@@ -82,7 +82,8 @@ const DERIVED_FILES: [&str; 2] = ["smoothed.npy", "body.npy"];
 /// [`DatasetWriter::write_sample`], marker last.
 ///
 /// # Errors
-/// As [`DatasetWriter::open`] for `dest` and each source's manifest (a source with a
+/// [`garmatnet_core::Error::InvalidArgument`] if a source is `dest` itself; as
+/// [`DatasetWriter::open`] for `dest` and each source's manifest (a source with a
 /// different spec is refused before anything is copied); [`Error::Io`] if copying fails;
 /// for slim samples, [`SampleDeriver::for_spec`]'s errors and [`Error::Parse`] for a
 /// malformed `simulated.npy`.
@@ -92,6 +93,20 @@ pub fn merge_shards(
     spec: DatasetSpec,
 ) -> crate::Result<MergeReport> {
     let dest = dest.as_ref();
+    // Merging a dataset into itself would delete each sample's marker before copying it.
+    if let Ok(dest_path) = std::fs::canonicalize(dest) {
+        if let Some(src) = sources
+            .iter()
+            .find(|src| std::fs::canonicalize(src).is_ok_and(|s| s == dest_path))
+        {
+            return Err(garmatnet_core::Error::InvalidArgument(format!(
+                "{} is both a source and the destination of the merge: merge the shards \
+                 into a new or another directory",
+                src.display()
+            ))
+            .into());
+        }
+    }
     // Every source is read before `dest` is created, so a missing source leaves nothing.
     let manifests = sources
         .iter()
@@ -186,9 +201,18 @@ mod tests {
                 std::fs::copy(f.path(), to.join(f.file_name())).unwrap();
             }
         }
-        let w = DatasetWriter::open(&copied, spec).unwrap();
+        let w = DatasetWriter::open(&copied, spec.clone()).unwrap();
         assert_eq!(w.done_count(), 4);
         assert!(w.is_done(1, 3) && !w.is_done(0, 0));
+        drop(w);
+        // Into itself (also spelled another way): refused, every sample left in place.
+        let itself = merged.join("..").join("merged");
+        let err = merge_shards(&merged, &[shards[0].clone(), itself], spec)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("both a source and the destination"), "{err}");
+        assert_eq!(Manifest::read(&merged).unwrap().samples.len(), 12);
+        assert_eq!(scan_samples(&merged, &tiny_spec()).unwrap().len(), 12);
     }
 
     #[test]
