@@ -427,6 +427,8 @@ fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<(
         (vec!["--frames", "5"], "START..END"),
         (vec!["--frames", "238..250"], "239"),
         (vec!["--frames", "0..2", "--fps", "0"], "--fps"),
+        (vec!["--frame", "3"], "--pose FILE --frame N"),
+        (vec!["--pose", "5", "--frame", "3"], "--pose FILE --frame N"),
     ];
     let out_arg = out.display().to_string();
     for (args, hint) in cases {
@@ -535,6 +537,65 @@ fn toy_random_simulate(
     ]
     .map(String::from)
     .to_vec()
+}
+
+/// Settings files and sizes `simulate` cannot honour are refused before the dataset's
+/// directory is made: a misspelt key (it would have run with the default), a step that
+/// would cut a pose change into astronomically many, and a motion too long to hold.
+#[test]
+fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("ds");
+    let out_arg = out.display().to_string();
+    let misspelt = dir.path().join("misspelt.json");
+    std::fs::write(
+        &misspelt,
+        r#"{"max_step_rad": 0.3, "drape": {"max_iteratons": 5}}"#,
+    )?;
+    let tiny = dir.path().join("tiny.json");
+    std::fs::write(&tiny, r#"{"max_step_rad": 1e-300}"#)?;
+    let base = [
+        "simulate",
+        "--materials",
+        "Cotton Poplin",
+        "--resolution",
+        "coarse",
+        "--out",
+        &out_arg,
+    ];
+    let (misspelt, tiny) = (misspelt.display().to_string(), tiny.display().to_string());
+    for (args, hint) in [
+        (
+            vec!["--poses", "2", "--solver", &misspelt],
+            "drape.max_iteratons",
+        ),
+        (vec!["--poses", "2", "--solver", &tiny], "max_step_rad"),
+        (
+            vec!["--poses", "18446744073709551615"],
+            "at most 100000 frames",
+        ),
+    ] {
+        assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
+    }
+    Ok(())
+}
+
+/// A training configuration with a misspelt key is refused before any training.
+#[test]
+fn train_refuses_a_config_with_an_unknown_key() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let config = dir.path().join("config.json");
+    std::fs::write(&config, r#"{"hiden": [8, 4, 8]}"#)?;
+    let out = dir.path().join("m.safetensors");
+    let (config, out_arg) = (config.display().to_string(), out.display().to_string());
+    let data = dir.path().join("no-data").display().to_string();
+    assert_fails_cleanly(
+        &[
+            "train", "--data", &data, "--out", &out_arg, "--config", &config,
+        ],
+        "unknown setting hiden",
+        &out,
+    )
 }
 
 /// Solver settings for toy datasets: 5 Newton iterations, one intermediate step.

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use garmatnet::core::read_pose_frame_rate;
+use garmatnet::core::{JointLimits, read_pose_frame_rate};
 use garmatnet::model::{
     Detail, FAR_FROM_TRAINING, FabricCalibration, Predictor, PushOut, SEQUENCE_BATCH,
     default_model_path, select_device,
@@ -175,6 +175,30 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
                 nearest.name
             );
         }
+    }
+    // The nets learned poses within the joint limits; one beyond them is an extrapolation.
+    let limits = JointLimits::default();
+    let beyond: Vec<(usize, String)> = match &sequence {
+        Some(frames) => frames
+            .iter()
+            .filter_map(|(i, p)| limits.validate(p, 1e-6).err().map(|e| (*i, e.to_string())))
+            .collect(),
+        None => limits
+            .validate(&pose, 1e-6)
+            .err()
+            .map(|e| (0, e.to_string()))
+            .into_iter()
+            .collect(),
+    };
+    if let Some((frame, first)) = beyond.first() {
+        let which = match &sequence {
+            Some(_) => format!("{} of the frames, first frame {frame}: ", beyond.len()),
+            None => String::new(),
+        };
+        warnln!(
+            "warning: the pose lies outside the joint limits the model was trained within \
+             ({which}{first}): the prediction is an extrapolation, expect larger errors"
+        );
     }
     if let Some(sequence) = sequence {
         return write_sequence(args, &predictor, &model_path, &material, &fabric, &sequence);

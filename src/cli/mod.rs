@@ -64,6 +64,36 @@ pub fn write_stderr(text: std::fmt::Arguments<'_>) {
     let _ = std::io::stderr().lock().write_fmt(text);
 }
 
+/// Reads a settings file (`train --config`, `simulate --solver`): JSON for `T`, whose
+/// missing keys take their defaults. A key `T` does not know is refused with its path, so
+/// a misspelt setting (`"max_iteratons"`) is not silently left at its default.
+///
+/// # Errors
+/// The file cannot be read, is not valid JSON for `T`, or has keys `T` does not know.
+pub fn read_settings_file<T: serde::de::DeserializeOwned>(
+    path: &std::path::Path,
+) -> anyhow::Result<T> {
+    use anyhow::Context as _;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut unknown = Vec::new();
+    let value: T =
+        serde_ignored::deserialize(&mut serde_json::Deserializer::from_str(&text), |key| {
+            unknown.push(key.to_string())
+        })
+        .with_context(|| format!("parsing {}", path.display()))?;
+    if !unknown.is_empty() {
+        anyhow::bail!(
+            "{}: unknown setting{} {}; check the spelling against the defaults \
+             (README, \"The command line\")",
+            path.display(),
+            if unknown.len() == 1 { "" } else { "s" },
+            unknown.join(", ")
+        );
+    }
+    Ok(value)
+}
+
 /// Writes `view` to each of `outs` and says what was written: one animation file, with
 /// `what` (e.g. the fabric and frames) and its frame rate, or a run of numbered files.
 ///

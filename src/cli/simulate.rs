@@ -231,6 +231,10 @@ fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
         if what.starts_with("existing dataset's poses"))
 }
 
+/// The most frames `--poses N` generates: at about 5 s a drape (default resolution, one
+/// core) that is six days per fabric, and the motion is held in memory at once.
+const MAX_GENERATED_POSES: usize = 100_000;
+
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let mut listed: Vec<(String, Material, bool)> =
@@ -262,6 +266,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     }
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one frame"),
+        Ok(n) if n > MAX_GENERATED_POSES => bail!(
+            "--poses {n}: the built-in motion makes at most {MAX_GENERATED_POSES} frames (about \
+             5 s of solver time each); for a longer sequence pass a pose file"
+        ),
         Ok(n) => {
             // Refuses a clearance outside 0 … 0.1 m with a message (the generator clamps).
             ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
@@ -275,12 +283,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             .with_context(|| format!("reading poses from {}", args.poses))?,
     };
     let sequence = match &args.solver {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            serde_json::from_str::<SequenceSettings>(&text)
-                .with_context(|| format!("parsing {}", path.display()))?
-        }
+        Some(path) => super::read_settings_file::<SequenceSettings>(path)?,
         None => {
             // Resuming keeps the dataset's own settings; a new dataset built on another
             // takes that one's, so its samples are walks this dataset would make.

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use garmatnet::core::DisplacementFrame;
 use garmatnet::model::PoseEncoding;
@@ -110,10 +110,7 @@ impl TrainOptions {
     /// The training configuration these options describe.
     pub fn config(&self) -> Result<TrainConfig> {
         let mut c = match &self.config {
-            Some(p) => serde_json::from_str(
-                &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
-            )
-            .with_context(|| format!("parsing {}", p.display()))?,
+            Some(p) => super::read_settings_file(p)?,
             None => TrainConfig::default(),
         };
         if let Some(v) = &self.device {

@@ -33,11 +33,22 @@ pub const DEFAULT_MOTION_FRAMES: usize = 240;
 /// `.npy`), of which `frame` picks one pose (default the first). No argument is the T-pose.
 ///
 /// # Errors
-/// [`CoreError::OutOfRange`] for a frame past the sequence or the file; the pose file
-/// reader's errors (missing file, malformed content, NaN) otherwise.
+/// [`CoreError::OutOfRange`] for a frame past the sequence or the file;
+/// [`CoreError::InvalidArgument`] for a `frame` without a pose file to pick from (no `spec`,
+/// or a frame number of the built-in motion); the pose file reader's errors (missing
+/// file, malformed content, NaN) otherwise.
 pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
+    let no_file = |what: &str| {
+        CoreError::InvalidArgument(format!(
+            "--frame picks a pose from a pose file, but {what}: give `--pose FILE --frame N`, \
+             or `--pose N` alone for frame N of the built-in motion"
+        ))
+    };
     let Some(spec) = spec else {
-        return Ok(Pose::zero());
+        return match frame {
+            Some(_) => Err(no_file("no --pose was given").into()),
+            None => Ok(Pose::zero()),
+        };
     };
     let out_of_range = |what: &str, index: usize, count: usize| CoreError::OutOfRange {
         what: what.into(),
@@ -47,6 +58,11 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
         hint: String::new(),
     };
     if let Ok(index) = spec.trim().parse::<usize>() {
+        if frame.is_some() {
+            return Err(
+                no_file(&format!("--pose {index} is a frame of the built-in motion")).into(),
+            );
+        }
         let frames = MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate();
         return frames.get(index).cloned().ok_or_else(|| {
             out_of_range("frame of the built-in motion (--pose)", index, frames.len()).into()
@@ -693,6 +709,11 @@ mod tests {
         assert_eq!(resolve_pose(Some(file), Some(1))?, frames[1]);
         assert!(resolve_pose(Some(file), Some(2)).is_err());
         assert!(resolve_pose(Some("/no/such/poses.json"), None).is_err());
+        // A --frame with nothing to pick from is refused, not ignored.
+        for (spec, frame) in [(None, Some(3)), (Some("5"), Some(3))] {
+            let err = resolve_pose(spec, frame).expect_err("--frame without a file");
+            assert!(err.to_string().contains("--pose FILE --frame N"), "{err}");
+        }
         Ok(())
     }
 
