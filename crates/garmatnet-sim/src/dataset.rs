@@ -460,10 +460,15 @@ pub(crate) mod tests {
                 name: "capsule-smpl-neutral".into(),
             },
             materials: (0..3)
-                .map(|i| MaterialEntry {
-                    name: format!("fabric{i}"),
-                    omega: [10.0 + i as f64, 11.0, 0.1, 0.2, 5.0, 0.15],
-                    omega_normalized: [0.1 * i as f64, 0.2, 0.3, 0.4, 0.5, 0.6],
+                .map(|i| {
+                    let omega_normalized = [0.1 * i as f64, 0.2, 0.3, 0.4, 0.5, 0.6];
+                    MaterialEntry {
+                        name: format!("fabric{i}"),
+                        omega: garmatnet_core::Material::from_normalized(omega_normalized)
+                            .unwrap()
+                            .as_array(),
+                        omega_normalized,
+                    }
                 })
                 .collect(),
             poses: (0..4).map(|_| limits.sample(&mut rng, 0.8)).collect(),
@@ -501,6 +506,22 @@ pub(crate) mod tests {
             wall_time_ms: 3.0,
             converged: true,
         }
+    }
+
+    #[test]
+    fn a_spec_whose_fabric_is_out_of_bounds_or_inconsistent_is_refused() {
+        assert!(tiny_spec().validate().is_ok());
+        let mut inconsistent = tiny_spec();
+        inconsistent.materials[1].omega_normalized = [5.0, -3.0, 0.3, 0.4, 0.5, 0.6];
+        let err = inconsistent.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("fabric1") && err.contains("omega_normalized[0]"),
+            "{err}"
+        );
+        let mut out_of_bounds = tiny_spec();
+        out_of_bounds.materials[2].omega[5] = 1e6;
+        let err = out_of_bounds.validate().unwrap_err().to_string();
+        assert!(err.contains("fabric2"), "{err}");
     }
 
     #[test]

@@ -150,7 +150,8 @@ impl DatasetSpec {
     ///
     /// # Errors
     /// [`Error::InvalidArgument`] for no materials or poses, a zero vertex count, duplicate
-    /// material names or non-finite ω; [`Error::Mismatch`] if `frames` and `poses` differ in
+    /// material names, non-finite ω, an ω outside the material bounds or an
+    /// `omega_normalized` that is not its ω's normalised coordinates; [`Error::Mismatch`] if `frames` and `poses` differ in
     /// length.
     pub fn validate(&self) -> Result<()> {
         if self.materials.is_empty() || self.poses.is_empty() || self.template.vertex_count == 0 {
@@ -184,6 +185,21 @@ impl DatasetSpec {
                 return Err(Error::InvalidArgument(format!(
                     "material `{}` has a non-finite parameter",
                     m.name
+                )));
+            }
+            // The nets train on `omega_normalized` and a predictor normalises `omega`: the
+            // two must be one fabric, inside the bounds a model can be asked about.
+            let material = garmatnet_core::Material::from_array(m.omega)
+                .map_err(|e| Error::InvalidArgument(format!("material `{}`: {e}", m.name)))?;
+            let expected = material.to_normalized();
+            if let Some(i) =
+                (0..expected.len()).find(|&i| (expected[i] - m.omega_normalized[i]).abs() > 1e-9)
+            {
+                return Err(Error::InvalidArgument(format!(
+                    "material `{}`: omega_normalized[{i}] = {} is not its omega's normalised \
+                     coordinate {} (n = (ln v - ln lo) / (ln hi - ln lo)); write both from one \
+                     Material",
+                    m.name, m.omega_normalized[i], expected[i]
                 )));
             }
         }

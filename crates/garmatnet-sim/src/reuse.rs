@@ -122,12 +122,20 @@ mod tests {
     use crate::manifest::{DatasetSpec, Manifest};
     use std::path::PathBuf;
 
+    /// Sets ω's component `i` to `value`, keeping the entry's normalised ω consistent.
+    fn set_omega(m: &mut crate::manifest::MaterialEntry, i: usize, value: f64) {
+        m.omega[i] = value;
+        m.omega_normalized = garmatnet_core::Material::from_array(m.omega)
+            .unwrap()
+            .to_normalized();
+    }
+
     /// `tiny_spec` with materials `fabric1, fabric2` and a new `fabric9`.
     fn extended_spec() -> DatasetSpec {
         let mut spec = tiny_spec();
         let mut new = spec.materials[0].clone();
         new.name = "fabric9".into();
-        new.omega[0] = 99.0;
+        set_omega(&mut new, 0, 99.0);
         spec.materials = vec![spec.materials[1].clone(), spec.materials[2].clone(), new];
         spec
     }
@@ -216,7 +224,7 @@ mod tests {
                 s.solver = serde_json::json!({ "tolerance": 1e-3 });
             }),
             ("ω of material `fabric1`", |s| {
-                s.materials[0].omega[5] = 1.0
+                set_omega(&mut s.materials[0], 5, 1.0);
             }),
             ("none of this dataset's materials", |s| {
                 for m in &mut s.materials {

@@ -43,7 +43,9 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
                 } else {
                     format!("Fabric {i}")
                 },
-                omega: omega_normalized.map(|v| 1.0 + 10.0 * v),
+                omega: garmatnet_core::Material::from_normalized(omega_normalized)
+                    .unwrap()
+                    .as_array(),
                 omega_normalized,
             }
         })
