@@ -31,7 +31,8 @@ pub struct CalibrateArgs {
     /// --material).
     #[arg(long)]
     pub omega: Option<String>,
-    /// The fabric's name in the calibration file (default: --material, else "fabric").
+    /// The fabric's name in the calibration file (default: --material, unless --omega
+    /// overrides it; else "fabric").
     #[arg(long)]
     pub name: Option<String>,
     /// A pose file (.json, .npz, .npy) whose --frames are the reference poses. Default: the
@@ -120,7 +121,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let name = args
         .name
         .clone()
-        .or_else(|| args.material.clone())
+        // A --material that --omega overrides is not the fabric calibrated.
+        .or_else(|| args.material.clone().filter(|_| args.omega.is_none()))
         .unwrap_or_else(|| "fabric".to_owned());
     let calibration = predictor.calibrate(&name, &material, &references, &settings)?;
     calibration
@@ -193,7 +195,7 @@ pub fn run_eval(args: &EvalCalibrationArgs) -> Result<()> {
         .with_push_out(garmatnet::model::PushOut {
             enabled: false,
             ..garmatnet::model::PushOut::default()
-        });
+        })?;
     let eval = evaluate_calibration(
         &data,
         &predictor,

@@ -128,7 +128,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         predictor = predictor.with_push_out(PushOut {
             enabled: false,
             ..PushOut::default()
-        });
+        })?;
     }
     if let Fabric::Calibrated(calibration) = &fabric {
         calibration.check_for(&predictor).with_context(|| {

@@ -234,6 +234,20 @@ fn poses_from_npy<R: Read>(npy: NpyFile<R>, path: &Path) -> Result<Vec<Pose>> {
         DType::Plain(ts) if ts.type_char() == TypeChar::Float => ts.size_field(),
         _ => 0,
     };
+    // A crafted shape can overflow the element count (npyz's too): refuse it by size first.
+    if frames
+        .checked_mul(width as u64)
+        .and_then(|n| n.checked_mul(float_bytes.max(1) as u64))
+        .is_none_or(|bytes| bytes > MAX_POSE_ARRAY_BYTES)
+    {
+        return Err(parse(
+            path,
+            format!(
+                "pose array declares shape {shape:?}, more than the {} MiB a pose file may hold",
+                MAX_POSE_ARRAY_BYTES >> 20
+            ),
+        ));
+    }
     let order = npy.order();
     let read_err = |e: std::io::Error| parse(path, format!("cannot read pose data: {e}"));
     let values: Vec<Real> = match float_bytes {
@@ -252,7 +266,7 @@ fn poses_from_npy<R: Read>(npy: NpyFile<R>, path: &Path) -> Result<Vec<Pose>> {
         }
     };
     let frames = usize::try_from(frames).map_err(|_| parse(path, "too many frames".into()))?;
-    if values.len() != frames * width {
+    if frames.checked_mul(width) != Some(values.len()) {
         return Err(parse(path, "pose array is truncated".into()));
     }
     let values = match order {
@@ -516,18 +530,26 @@ mod tests {
     fn huge_declared_shape_with_no_data_is_an_error_not_an_allocation() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("huge.npy");
-        let mut header =
-            "{'descr': '<f8', 'fortran_order': False, 'shape': (100000000000, 72), }".to_owned();
-        while !(10 + header.len() + 1).is_multiple_of(64) {
-            header.push(' ');
+        // The second shape's element count wraps to a small number in 64 bits.
+        for frames in ["100000000000", "256204778801521551"] {
+            let mut header =
+                format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({frames}, 72), }}");
+            while !(10 + header.len() + 1).is_multiple_of(64) {
+                header.push(' ');
+            }
+            header.push('\n');
+            let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+            bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+            bytes.extend_from_slice(header.as_bytes());
+            bytes.extend_from_slice(&[0u8; 64]);
+            std::fs::write(&p, bytes).unwrap();
+            let err = read_poses(&p).unwrap_err();
+            assert!(matches!(err, Error::Parse { .. }), "{err}");
+            assert!(
+                err.to_string().contains("declares shape"),
+                "{frames}: {err}"
+            );
         }
-        header.push('\n');
-        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
-        bytes.extend_from_slice(header.as_bytes());
-        bytes.extend_from_slice(&[0u8; 64]);
-        std::fs::write(&p, bytes).unwrap();
-        assert!(matches!(read_poses(&p), Err(Error::Parse { .. })));
     }
 
     proptest! {

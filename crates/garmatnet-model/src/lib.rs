@@ -62,5 +62,5 @@ pub use output_normalizer::{MIN_STD, OutputNormalizer};
 pub use predictor::{
     Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions, template_hash_hex,
 };
-pub use push_out::{PushOut, PushOutReport, push_out};
+pub use push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};
 pub use scene::{Character, CharacterOutput, Scene, SceneUpdate};

@@ -272,10 +272,13 @@ impl Predictor {
     }
 
     /// Sets the body push-out used by [`Predictor::predict_on_body`].
-    #[must_use]
-    pub fn with_push_out(mut self, push_out: PushOut) -> Self {
+    ///
+    /// # Errors
+    /// [`Error::Core`] for a clearance outside [`PushOut::validate`]'s range.
+    pub fn with_push_out(mut self, push_out: PushOut) -> Result<Self> {
+        push_out.validate()?;
         self.push_out = push_out;
-        self
+        Ok(self)
     }
 
     /// The model.
@@ -982,10 +985,21 @@ mod tests {
                 .iter()
                 .all(|v| sphere.distance(v) >= 0.002 - 1e-9)
         );
-        let off = predictor(7, DisplacementFrame::World).with_push_out(PushOut {
-            enabled: false,
-            ..PushOut::default()
-        });
+        for epsilon in [Real::NAN, -0.001, 1.0] {
+            let refused = predictor(7, DisplacementFrame::World)
+                .with_push_out(PushOut {
+                    enabled: true,
+                    epsilon,
+                })
+                .unwrap_err();
+            assert!(refused.to_string().contains("epsilon"), "{refused}");
+        }
+        let off = predictor(7, DisplacementFrame::World)
+            .with_push_out(PushOut {
+                enabled: false,
+                ..PushOut::default()
+            })
+            .unwrap();
         let (mesh, report) = off
             .predict_on_body(&pose, &m, Detail::Full, &sphere)
             .unwrap();

@@ -14,6 +14,31 @@ pub struct PushOut {
     pub epsilon: Real,
 }
 
+/// The largest clearance [`PushOut::validate`] accepts (metres): 5 cm, beyond any garment's
+/// gap to the body; larger values would move a whole sleeve off the arm.
+pub const MAX_PUSH_OUT_EPSILON: Real = 0.05;
+
+impl PushOut {
+    /// Checks the clearance: finite, from 0 to [`MAX_PUSH_OUT_EPSILON`] (a NaN or negative ε
+    /// would move vertices without a reason, a metre-scale one would move the garment away).
+    ///
+    /// # Errors
+    /// [`garmatnet_core::Error::OutOfRange`] naming ε and its range.
+    pub fn validate(&self) -> garmatnet_core::Result<()> {
+        if (0.0..=MAX_PUSH_OUT_EPSILON).contains(&self.epsilon) {
+            Ok(())
+        } else {
+            Err(garmatnet_core::Error::OutOfRange {
+                what: "push-out clearance epsilon (metres)".into(),
+                value: self.epsilon,
+                min: 0.0,
+                max: MAX_PUSH_OUT_EPSILON,
+                hint: String::new(),
+            })
+        }
+    }
+}
+
 impl Default for PushOut {
     fn default() -> Self {
         Self {

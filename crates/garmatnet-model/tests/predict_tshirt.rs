@@ -68,7 +68,7 @@ fn smooth_detail_is_the_fitting_net_alone() -> anyhow::Result<()> {
             enabled: false,
             ..Default::default()
         },
-    );
+    )?;
     let material = Material::preset("denim heavy")?;
     let pose = Pose::zero();
     let full = predictor.predict(&pose, &material, Detail::Full)?;
