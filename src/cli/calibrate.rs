@@ -173,8 +173,8 @@ pub struct EvalCalibrationArgs {
     #[arg(long, default_value = "0.1", value_delimiter = ',')]
     pub ridge: Vec<f64>,
     /// The dataset's pose indices to measure at, separated by commas (default: every finished
-    /// pose but the references). Table 2's held-out frames of a 200-frame dataset:
-    /// `0,10,...,190`.
+    /// pose but the references). Table 2's held-out frames of a 200-frame dataset are
+    /// 0, 10, 20, … 190, written out in full (`$(seq -s, 0 10 190)` in a shell).
     #[arg(long, value_delimiter = ',')]
     pub test_poses: Option<Vec<usize>>,
     /// Also write the result as JSON here.
