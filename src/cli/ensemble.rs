@@ -37,13 +37,19 @@ pub fn run(args: &EnsembleArgs) -> Result<()> {
     let splits = args
         .models
         .iter()
-        .map(|path| {
+        .zip(&members)
+        .map(|(path, member)| -> Result<Option<Split>> {
             let file = split_path(path);
-            file.exists()
-                .then(|| Split::read(&file, dataset_hash))
-                .transpose()
+            if !file.exists() {
+                return Ok(None);
+            }
+            let split = Split::read(&file, dataset_hash)?;
+            // A member records the split it trained with; a file next to it that is another
+            // run's would hand the ensemble the wrong held-out samples.
+            split.check_model(&file, path, &member.meta.provenance)?;
+            Ok(Some(split))
         })
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect::<Result<Vec<_>>>()?;
     if let Some(i) = splits.iter().position(|s| *s != splits[0]) {
         bail!(
             "{} and {} were trained on different splits (or only one has a split file), so \
@@ -57,6 +63,13 @@ pub fn run(args: &EnsembleArgs) -> Result<()> {
     let split = splits.into_iter().next().flatten();
     let mut model = GarMatNetModel::average(&members, &device)?;
     model.meta.provenance.command = std::env::args().collect::<Vec<_>>().join(" ");
+    if let (Some(split), Some(extra)) = (&split, model.meta.provenance.extra.as_object_mut()) {
+        // The ensemble is evaluated with its members' split, written next to it below.
+        extra.insert(
+            garmatnet::model::TrainingProvenance::SPLIT_FINGERPRINT_KEY.into(),
+            split.fingerprint().into(),
+        );
+    }
     model.save(&args.out)?;
     let out_split = split_path(&args.out);
     let split_note = match split {

@@ -79,6 +79,40 @@ pub struct TrainingProvenance {
     pub training_fabrics: Vec<TrainingFabric>,
 }
 
+impl TrainingProvenance {
+    /// The key of [`TrainingProvenance::extra`] under which the trainer records the
+    /// fingerprint of the split the model was trained with.
+    pub const SPLIT_FINGERPRINT_KEY: &'static str = "split_fingerprint";
+
+    /// The fingerprint of the split the model was trained with (`garmatnet-train`'s
+    /// `Split::fingerprint`), kept in [`TrainingProvenance::extra`] so that files of every
+    /// version share one layout; `None` for models written before it was recorded (or not
+    /// trained on a split, e.g. an ensemble). Readers of the split file next to a model
+    /// compare it with the file's, so a model is never evaluated on another run's split.
+    #[must_use]
+    pub fn split_fingerprint(&self) -> Option<&str> {
+        self.extra
+            .get(Self::SPLIT_FINGERPRINT_KEY)
+            .and_then(serde_json::Value::as_str)
+    }
+
+    /// Checks that every recorded number survives JSON: a NaN or infinite loss would be
+    /// written as `null`, and the file could then not be read back.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the loss.
+    pub fn validate(&self) -> Result<()> {
+        if let Some((name, value)) = self.losses.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::InvalidConfig(format!(
+                "the recorded loss `{name}` is {value}; only finite numbers can be stored (a \
+                 model file with it would not load). Train at least one epoch per net, or \
+                 leave the loss out of the provenance"
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// Everything about a model that is not a weight.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelMeta {
@@ -193,7 +227,8 @@ impl GarMatNetModel {
         self.meta.template.vertex_count
     }
 
-    /// Checks that the nets, normalisers and template agree with each other.
+    /// Checks that the nets, normalisers and template agree with each other, and that the
+    /// provenance can be written ([`TrainingProvenance::validate`]).
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] naming what disagrees.
@@ -214,6 +249,7 @@ impl GarMatNetModel {
                 )));
             }
         }
+        self.meta.provenance.validate()?;
         if let Some(range) = &self.meta.provenance.material_range
             && !range.is_valid()
         {
@@ -270,8 +306,9 @@ impl GarMatNetModel {
     /// renamed over `path` once complete).
     ///
     /// # Errors
-    /// [`Error::InvalidConfig`] if the model is inconsistent; [`Error::Io`] if the file
-    /// cannot be written.
+    /// [`Error::InvalidConfig`] if the model is inconsistent or its provenance holds a
+    /// number JSON cannot store (NaN, infinity); nothing is written then. [`Error::Io`] if
+    /// the file cannot be written.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
         self.validate()?;
@@ -656,6 +693,51 @@ mod tests {
             "{err}"
         );
         assert!(model.ensure_template("test-template", 51).is_err());
+    }
+
+    #[test]
+    fn a_non_finite_loss_is_refused_before_anything_is_written() {
+        // Serialised, NaN and infinity become `null`, which no load can read back.
+        let dev = cpu();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        for bad in [Real::NAN, Real::INFINITY] {
+            let mut model = small_model(8, None, &dev);
+            model
+                .meta
+                .provenance
+                .losses
+                .insert("fitting_dev_mse".into(), bad);
+            let err = model.save(&path).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidConfig(_))
+                    && err.to_string().contains("fitting_dev_mse"),
+                "{err}"
+            );
+            assert!(!path.exists(), "a refused save must not leave a file");
+        }
+    }
+
+    #[test]
+    fn the_split_fingerprint_is_read_from_the_provenance_and_absent_in_older_files() {
+        let dev = cpu();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        let mut model = small_model(9, None, &dev);
+        assert_eq!(model.meta.provenance.split_fingerprint(), None);
+        model.save(&path).unwrap();
+        let back = GarMatNetModel::load(&path, &dev).unwrap();
+        assert_eq!(back.meta.provenance.split_fingerprint(), None);
+        model.meta.provenance.extra = serde_json::json!({
+            "train_config": {},
+            (TrainingProvenance::SPLIT_FINGERPRINT_KEY): "0123456789abcdef",
+        });
+        model.save(&path).unwrap();
+        let back = GarMatNetModel::load(&path, &dev).unwrap();
+        assert_eq!(
+            back.meta.provenance.split_fingerprint(),
+            Some("0123456789abcdef")
+        );
     }
 
     #[test]

@@ -73,13 +73,19 @@ pub struct EvalInputs {
 /// writes the report and figures into `inputs.out_dir`.
 ///
 /// # Errors
-/// [`Error::Split`] if the split file is missing, leaks or belongs to another dataset;
+/// [`Error::Split`] if the split file is missing, malformed, leaks, names samples outside the
+/// dataset, belongs to another dataset or is not the split the model was trained with;
 /// model errors for a corrupt model or another template; dataset errors naming the sample.
 pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let device = select_device(&config.device)?;
     let data = TrainingDataset::open(&inputs.data_dir, true)?;
     let model = load_model(&inputs.model, &data, &device)?;
-    let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
+    let split = Split::read_for_model(
+        &inputs.model,
+        &model.meta.provenance,
+        data.spec(),
+        data.dataset_hash(),
+    )?;
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "report")?;
     let spec = data.spec();
     let comparison = split.comparison_test();
@@ -357,7 +363,12 @@ fn compare_frames(
     primary_whole_mm: f64,
 ) -> Result<FrameComparison> {
     let other = load_model(path, data, device)?;
-    let other_split = Split::read(&split_path(path), data.dataset_hash())?;
+    let other_split = Split::read_for_model(
+        path,
+        &other.meta.provenance,
+        data.spec(),
+        data.dataset_hash(),
+    )?;
     if other_split.test != split.test {
         return Err(Error::Split {
             path: split_path(path),

@@ -107,7 +107,12 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
         ));
     }
     let data = TrainingDataset::open(&inputs.data_dir, true)?;
-    let split = Split::read(&split_path(&inputs.model), data.dataset_hash())?;
+    // The main model's own split, checked against the dataset and the model's record of it.
+    let provenance = GarMatNetModel::load(&inputs.model, &select_device("cpu")?)?
+        .meta
+        .provenance;
+    let split =
+        Split::read_for_model(&inputs.model, &provenance, data.spec(), data.dataset_hash())?;
     let keys = choose_samples(&split.comparison_test(), config.samples);
     if keys.is_empty() {
         return Err(Error::Split {

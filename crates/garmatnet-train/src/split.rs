@@ -1,18 +1,21 @@
 //! The paper's data split (§4.1): unseen materials and unseen poses go to test, the rest is
 //! split 90/10 into train and dev with a seeded shuffle.
 //!
-//! The split is written next to the model (`{model stem}.split.json`) and evaluation reads it
-//! back, so a test sample can never have been trained on.
+//! The split is written next to the model (`{model stem}.split.json`), together with it at the
+//! end of training, and evaluation reads it back, so a test sample can never have been
+//! trained on. The model records the split's [`Split::fingerprint`], and
+//! [`Split::read_for_model`] refuses a split file that is not that model's, or that names
+//! samples outside the dataset.
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
 use garmatnet_core::{PAPER_TEST_MATERIALS, SplitMix64};
-use garmatnet_model::{MaterialRange, TrainingFabric};
+use garmatnet_model::{MaterialRange, TrainingFabric, TrainingProvenance};
 use garmatnet_sim::{DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
-use crate::dataset_loader::SampleKey;
+use crate::dataset_loader::{Fnv1a, SampleKey};
 use crate::error::{Error, Result};
 
 /// How to split a dataset.
@@ -390,9 +393,15 @@ impl Split {
 
     /// Reads a split and checks it against the dataset it will be used with.
     ///
+    /// This checks what the file alone can tell: the dataset fingerprint, sorted
+    /// duplicate-free lists ([`Split::check_well_formed`]) and no leak. It cannot check that
+    /// the indices lie inside the dataset; readers that index the dataset with the split use
+    /// [`Split::read_for_dataset`] or [`Split::read_for_model`].
+    ///
     /// # Errors
-    /// [`Error::Io`] if it cannot be read; [`Error::Split`] if it is malformed, leaks, or
-    /// was made for another dataset (`dataset_hash` differs).
+    /// [`Error::Io`] if it cannot be read; [`Error::Split`] if it is malformed (lists
+    /// unsorted or with duplicates), leaks, or was made for another dataset (`dataset_hash`
+    /// differs).
     pub fn read(path: &Path, dataset_hash: &str) -> Result<Self> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
         let split: Split = serde_json::from_slice(&bytes).map_err(|e| Error::Split {
@@ -409,8 +418,207 @@ impl Split {
                 ),
             });
         }
+        split.check_well_formed(path)?;
         split.check_no_leak(path)?;
         Ok(split)
+    }
+
+    /// [`Split::read`], then checks that every index lies inside the dataset `spec`
+    /// ([`Split::check_within`]), so no reader indexes the dataset out of bounds.
+    ///
+    /// # Errors
+    /// As [`Split::read`]; [`Error::Split`] naming an entry outside the dataset.
+    pub fn read_for_dataset(path: &Path, spec: &DatasetSpec, dataset_hash: &str) -> Result<Self> {
+        let split = Self::read(path, dataset_hash)?;
+        split.check_within(spec, path)?;
+        Ok(split)
+    }
+
+    /// Reads the split next to the model at `model_path` ([`crate::split_path`]) for the
+    /// dataset `spec`, as [`Split::read_for_dataset`], and checks that it is the split that
+    /// model was trained with ([`Split::check_model`]).
+    ///
+    /// # Errors
+    /// As [`Split::read_for_dataset`]; [`Error::Split`] if the model records another split.
+    pub fn read_for_model(
+        model_path: &Path,
+        provenance: &TrainingProvenance,
+        spec: &DatasetSpec,
+        dataset_hash: &str,
+    ) -> Result<Self> {
+        let path = crate::trainer::split_path(model_path);
+        let split = Self::read_for_dataset(&path, spec, dataset_hash)?;
+        split.check_model(&path, model_path, provenance)?;
+        Ok(split)
+    }
+
+    /// A fingerprint of the split's samples and indices (not its configuration, whose floats
+    /// need not survive a JSON round trip bit for bit): 16 hex digits of FNV-1a 64.
+    ///
+    /// The trainer records it in the model's provenance
+    /// ([`TrainingProvenance::split_fingerprint`]) when it writes the model, so a split file
+    /// that does not belong to the model next to it — a run killed after writing its split
+    /// but before its model, a file copied from elsewhere — is refused instead of silently
+    /// testing on samples the model trained on.
+    #[must_use]
+    pub fn fingerprint(&self) -> String {
+        let mut h = Fnv1a::default();
+        h.write(self.dataset_hash.as_bytes());
+        let mut list = |name: &str, values: &mut dyn Iterator<Item = usize>| {
+            h.write(name.as_bytes());
+            for v in values {
+                h.write(&(v as u64).to_le_bytes());
+            }
+        };
+        list("test_materials", &mut self.test_materials.iter().copied());
+        list("held_out_poses", &mut self.held_out_poses.iter().copied());
+        list("dev_materials", &mut self.dev_materials.iter().copied());
+        list("dev_poses", &mut self.dev_poses.iter().copied());
+        for (name, keys) in [
+            ("train", &self.train),
+            ("dev", &self.dev),
+            ("test", &self.test),
+            ("unsettled", &self.unsettled),
+        ] {
+            list(
+                name,
+                &mut keys.iter().flat_map(|k| [k.material, k.pose].into_iter()),
+            );
+        }
+        format!("{:016x}", h.0)
+    }
+
+    /// Checks that this split (read from `path`) is the one the model at `model_path`, with
+    /// `provenance`, was trained with. A model written before the fingerprint was recorded
+    /// has none and is accepted as before.
+    ///
+    /// # Errors
+    /// [`Error::Split`] if the recorded fingerprint differs from [`Split::fingerprint`].
+    pub fn check_model(
+        &self,
+        path: &Path,
+        model_path: &Path,
+        provenance: &TrainingProvenance,
+    ) -> Result<()> {
+        let Some(recorded) = provenance.split_fingerprint() else {
+            return Ok(());
+        };
+        let actual = self.fingerprint();
+        if recorded == actual {
+            return Ok(());
+        }
+        Err(Error::Split {
+            path: path.to_owned(),
+            message: format!(
+                "it is not the split `{}` was trained with (split fingerprint {actual}, the \
+                 model records {recorded}): its test samples may have been trained on. A \
+                 training run was probably interrupted after writing its split, or the file \
+                 was replaced; finish or repeat the training with the same --out, or put the \
+                 model's own split file back",
+                model_path.display()
+            ),
+        })
+    }
+
+    /// Checks that the index lists are as the trainer writes them: the pose lists and the
+    /// sample lists sorted (they are binary-searched) and no list with a duplicate.
+    ///
+    /// # Errors
+    /// [`Error::Split`] naming the list and the first entry out of order or repeated.
+    pub fn check_well_formed(&self, path: &Path) -> Result<()> {
+        let refuse = |list: &str, entry: String, problem: &str| Error::Split {
+            path: path.to_owned(),
+            message: format!(
+                "`{list}` {problem} at {entry}; the trainer writes these lists sorted and \
+                 without duplicates, so the file was edited or damaged: restore it or re-train"
+            ),
+        };
+        for (list, indices) in [
+            ("held_out_poses", &self.held_out_poses),
+            ("dev_poses", &self.dev_poses),
+        ] {
+            if let Some(w) = indices.windows(2).find(|w| w[0] >= w[1]) {
+                return Err(refuse(
+                    list,
+                    format!("pose {}", w[1]),
+                    "is not sorted or repeats an entry",
+                ));
+            }
+        }
+        for (list, indices) in [
+            ("test_materials", &self.test_materials),
+            ("dev_materials", &self.dev_materials),
+        ] {
+            let mut seen = BTreeSet::new();
+            if let Some(m) = indices.iter().find(|&&m| !seen.insert(m)) {
+                return Err(refuse(list, format!("material {m}"), "repeats an entry"));
+            }
+        }
+        for (list, keys) in [
+            ("train", &self.train),
+            ("dev", &self.dev),
+            ("test", &self.test),
+            ("unsettled", &self.unsettled),
+        ] {
+            if let Some(w) = keys.windows(2).find(|w| w[0] >= w[1]) {
+                return Err(refuse(
+                    list,
+                    format!("sample (material {}, pose {})", w[1].material, w[1].pose),
+                    "is not sorted or repeats an entry",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that every material and pose index of the split lies inside the dataset
+    /// `spec`, so that a hand-edited or foreign file cannot index the dataset out of bounds.
+    ///
+    /// # Errors
+    /// [`Error::Split`] naming the first entry outside the dataset.
+    pub fn check_within(&self, spec: &DatasetSpec, path: &Path) -> Result<()> {
+        let (materials, poses) = (spec.materials.len(), spec.poses.len());
+        let refuse = |list: &str, entry: String| Error::Split {
+            path: path.to_owned(),
+            message: format!(
+                "`{list}` names {entry}, outside the dataset ({materials} materials, indices \
+                 0..{materials}; {poses} poses, indices 0..{poses}); the file was edited or \
+                 belongs to another dataset: restore it or re-train"
+            ),
+        };
+        for (list, indices) in [
+            ("test_materials", &self.test_materials),
+            ("dev_materials", &self.dev_materials),
+        ] {
+            if let Some(m) = indices.iter().find(|&&m| m >= materials) {
+                return Err(refuse(list, format!("material {m}")));
+            }
+        }
+        for (list, indices) in [
+            ("held_out_poses", &self.held_out_poses),
+            ("dev_poses", &self.dev_poses),
+        ] {
+            if let Some(p) = indices.iter().find(|&&p| p >= poses) {
+                return Err(refuse(list, format!("pose {p}")));
+            }
+        }
+        for (list, keys) in [
+            ("train", &self.train),
+            ("dev", &self.dev),
+            ("test", &self.test),
+            ("unsettled", &self.unsettled),
+        ] {
+            if let Some(k) = keys
+                .iter()
+                .find(|k| k.material >= materials || k.pose >= poses)
+            {
+                return Err(refuse(
+                    list,
+                    format!("sample (material {}, pose {})", k.material, k.pose),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -781,6 +989,120 @@ mod tests {
         let text = err.to_string();
         assert!(matches!(err, Error::UnknownMaterials { .. }), "{text}");
         assert!(text.contains("Cashmere") && text.contains("M2"), "{text}");
+    }
+
+    /// `split` written to a temporary file, and the file.
+    fn written(split: &Split) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("model.split.json");
+        split.write(&path).unwrap();
+        (dir, path)
+    }
+
+    #[test]
+    fn a_split_naming_samples_outside_the_dataset_is_refused_not_a_panic() {
+        let (spec, keys) = (spec(6, 30), all_keys(6, 30));
+        let split = Split::new(&spec, &settled(&keys), "h", &config()).unwrap();
+        let (_dir, path) = written(&split);
+        assert_eq!(Split::read_for_dataset(&path, &spec, "h").unwrap(), split);
+        // The audit's file: a test key at pose 9999 (kept in order, so only the bound fails).
+        let mut far_pose = split.clone();
+        let key = SampleKey {
+            material: 0,
+            pose: 9999,
+        };
+        let at = far_pose.test.partition_point(|k| *k < key);
+        far_pose.test.insert(at, key);
+        let mut far_material = split.clone();
+        far_material.test.push(SampleKey {
+            material: 6,
+            pose: 0,
+        });
+        let mut far_held_out = split.clone();
+        far_held_out.held_out_poses.push(30);
+        let mut far_target = split.clone();
+        far_target.test_materials.push(17);
+        for (bad, entry) in [
+            (far_pose, "sample (material 0, pose 9999)"),
+            (far_material, "sample (material 6, pose 0)"),
+            (far_held_out, "pose 30"),
+            (far_target, "material 17"),
+        ] {
+            let (_dir, path) = written(&bad);
+            let err = Split::read_for_dataset(&path, &spec, "h").unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, Error::Split { .. }), "{text}");
+            assert!(
+                text.contains(entry) && text.contains("outside the dataset"),
+                "{text}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_split_with_unsorted_or_repeated_lists_is_refused() {
+        let (spec, keys) = (spec(6, 30), all_keys(6, 30));
+        let split = Split::new(&spec, &settled(&keys), "h", &config()).unwrap();
+        let mut repeated_test = split.clone();
+        repeated_test.test.insert(1, split.test[1]);
+        let mut unsorted_train = split.clone();
+        unsorted_train.train.swap(0, 1);
+        let mut unsorted_poses = split.clone();
+        unsorted_poses.held_out_poses.reverse();
+        let mut repeated_target = split.clone();
+        repeated_target.test_materials.push(split.test_materials[0]);
+        for (bad, list) in [
+            (repeated_test, "`test`"),
+            (unsorted_train, "`train`"),
+            (unsorted_poses, "`held_out_poses`"),
+            (repeated_target, "`test_materials`"),
+        ] {
+            let (_dir, path) = written(&bad);
+            let err = Split::read(&path, "h").unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, Error::Split { .. }), "{text}");
+            assert!(text.contains(list) && text.contains("sorted"), "{text}");
+        }
+    }
+
+    #[test]
+    fn a_split_is_refused_for_a_model_that_records_another() {
+        let (spec, keys) = (spec(6, 30), all_keys(6, 30));
+        let split = Split::new(&spec, &settled(&keys), "h", &config()).unwrap();
+        let other_seed = SplitConfig {
+            seed: 7,
+            ..config()
+        };
+        let other = Split::new(&spec, &settled(&keys), "h", &other_seed).unwrap();
+        assert_ne!(split.fingerprint(), other.fingerprint());
+        // The fingerprint survives the file.
+        let (dir, path) = written(&split);
+        assert_eq!(
+            Split::read(&path, "h").unwrap().fingerprint(),
+            split.fingerprint()
+        );
+        let model = dir.path().join("model.safetensors");
+        let recording = |fingerprint: &str| TrainingProvenance {
+            extra: serde_json::json!({ (TrainingProvenance::SPLIT_FINGERPRINT_KEY): fingerprint }),
+            ..TrainingProvenance::default()
+        };
+        let own = recording(&split.fingerprint());
+        assert_eq!(
+            Split::read_for_model(&model, &own, &spec, "h").unwrap(),
+            split
+        );
+        let err = Split::read_for_model(&model, &recording(&other.fingerprint()), &spec, "h")
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::Split { .. }) && err.to_string().contains("not the split"),
+            "{err}"
+        );
+        // A model written before the fingerprint was recorded reads its split as before.
+        let legacy = TrainingProvenance::default();
+        assert_eq!(
+            Split::read_for_model(&model, &legacy, &spec, "h").unwrap(),
+            split
+        );
     }
 
     #[test]

@@ -126,18 +126,14 @@ impl TrainConfig {
     /// # Errors
     /// [`Error::InvalidConfig`] naming the field.
     pub fn validate(&self) -> Result<()> {
-        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
-            return Err(Error::InvalidConfig(format!(
-                "learning_rate = {} must be a positive number",
-                self.learning_rate
-            )));
-        }
-        check_weight_decay(self.weight_decay)?;
-        if self.batch_size == 0 || self.max_epochs == 0 {
-            return Err(Error::InvalidConfig(
-                "batch_size and max_epochs must be positive".into(),
-            ));
-        }
+        check_loop_settings(&LoopConfig {
+            learning_rate: self.learning_rate,
+            batch_size: self.batch_size,
+            max_epochs: self.max_epochs,
+            patience_fitting: self.patience_fitting,
+            patience_local: self.patience_local,
+            weight_decay: self.weight_decay,
+        })?;
         GarMatNetConfig {
             output_rank: None,
             ..self.net_config(1)
@@ -161,6 +157,17 @@ impl TrainConfig {
         .with_scale_free_material(self.scale_free_material)
         .with_pose_encoding(self.pose_encoding)
         .with_displacement_frame(self.displacement_frame)
+    }
+
+    /// Whether `self` and `other` train the same model: equal in everything but `quiet` and
+    /// `device` (what [`TrainConfig::fingerprint`] leaves out).
+    pub(crate) fn same_run(&self, other: &TrainConfig) -> bool {
+        let normalised = |c: &TrainConfig| TrainConfig {
+            quiet: false,
+            device: String::new(),
+            ..c.clone()
+        };
+        normalised(self) == normalised(other)
     }
 
     /// A fingerprint of everything that changes the result (not `quiet`/`device`).
@@ -224,7 +231,7 @@ pub struct TrainSummary {
     pub finished: bool,
     /// The model file (written only when `finished`).
     pub model_path: PathBuf,
-    /// The split file.
+    /// The split file (written together with the model, only when `finished`).
     pub split_path: PathBuf,
     /// The checkpoint directory (removed when `finished`).
     pub checkpoint_dir: PathBuf,
@@ -262,8 +269,44 @@ fn set_pca_basis(
     Ok(())
 }
 
+/// The training-loop settings [`TrainConfig`] and the baseline's config share.
+pub(crate) struct LoopConfig {
+    pub(crate) learning_rate: f64,
+    pub(crate) batch_size: usize,
+    pub(crate) max_epochs: usize,
+    pub(crate) patience_fitting: usize,
+    pub(crate) patience_local: usize,
+    pub(crate) weight_decay: f64,
+}
+
+/// Checks the loop settings of [`TrainConfig`] and the baseline's config: a positive
+/// learning rate, batch size, epoch limit and patience (a patience of 0 would stop before
+/// the first epoch and leave an untrained net with no dev loss to record).
+pub(crate) fn check_loop_settings(c: &LoopConfig) -> Result<()> {
+    if !(c.learning_rate.is_finite() && c.learning_rate > 0.0) {
+        return Err(Error::InvalidConfig(format!(
+            "learning_rate = {} must be a positive number",
+            c.learning_rate
+        )));
+    }
+    check_weight_decay(c.weight_decay)?;
+    if c.batch_size == 0 || c.max_epochs == 0 {
+        return Err(Error::InvalidConfig(
+            "batch_size and max_epochs must be positive".into(),
+        ));
+    }
+    if c.patience_fitting == 0 || c.patience_local == 0 {
+        return Err(Error::InvalidConfig(format!(
+            "patience_fitting = {} and patience_local = {} must be at least 1 (the epochs \
+             without a better development loss before a net stops; the paper uses 50 and 200)",
+            c.patience_fitting, c.patience_local
+        )));
+    }
+    Ok(())
+}
+
 /// Checks a weight decay for [`TrainConfig`] and the baseline's config.
-pub(crate) fn check_weight_decay(weight_decay: f64) -> Result<()> {
+fn check_weight_decay(weight_decay: f64) -> Result<()> {
     if weight_decay.is_finite() && (0.0..1.0).contains(&weight_decay) {
         Ok(())
     } else {
@@ -287,6 +330,14 @@ pub fn split_path(model_path: &Path) -> PathBuf {
 
 /// Trains GarMatNet on the dataset in `data_dir` and writes the model to `model_path`, its
 /// split to [`split_path`] and checkpoints to `{stem}.checkpoint/` (removed at the end).
+///
+/// # The model and its split
+/// The split is written only once the model is, never when a run stops early, fails or is
+/// killed, so an earlier model at `model_path` keeps its own split. The model records the
+/// split's [`Split::fingerprint`](crate::Split::fingerprint) in its provenance, and readers
+/// of the pair ([`crate::Split::read_for_model`]) refuse a split file that is not the one
+/// the model was trained with. A resumed run needs no split file: it recomputes the split
+/// from the dataset and the configuration, which the checkpoint's fingerprint pins.
 ///
 /// # Errors
 /// [`Error::InvalidConfig`] for bad settings; dataset errors naming the sample;
@@ -340,10 +391,6 @@ pub fn train(
                 .into(),
         });
     }
-    if let Some(dir) = split_file.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    split.write(&split_file)?;
 
     let progress = epoch_progress(config.max_epochs, config.quiet);
     let ad = device.clone().autodiff();
@@ -471,6 +518,7 @@ pub fn train(
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
+            (TrainingProvenance::SPLIT_FINGERPRINT_KEY): split.fingerprint(),
             "train_config": config,
             "fitting": NetSummary::from(&fitting_progress),
             "local": NetSummary::from(&local_progress),
@@ -486,7 +534,12 @@ pub fn train(
             provenance,
         },
     };
+    // The model first, then its split: a run killed in between leaves the new model next to
+    // the previous split (or none), which the split fingerprint recorded above exposes; the
+    // other order could leave an older model, which may record no fingerprint, next to a
+    // split it was not trained with.
     model.save(model_path)?;
+    split.write(&split_file)?;
     checkpoint.remove();
     summary.finished = true;
     Ok(summary)
@@ -697,6 +750,93 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_zero_patience_is_refused_before_training() {
+        for (fitting, local) in [(0, 200), (50, 0), (0, 0)] {
+            let config = TrainConfig {
+                patience_fitting: fitting,
+                patience_local: local,
+                ..TrainConfig::default()
+            };
+            let err = config.validate().unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidConfig(_)) && err.to_string().contains("patience"),
+                "{err}"
+            );
+        }
+        TrainConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn a_model_is_evaluated_only_with_the_split_it_was_trained_with() {
+        use crate::evaluation::{EvalConfig, EvalInputs, evaluate};
+        use crate::split::Split;
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let model_path = dir.path().join("model.safetensors");
+        train(&data, &model_path, &tiny_config(1), &RunOptions::default()).unwrap();
+        let split_file = split_path(&model_path);
+        let own = std::fs::read(&split_file).unwrap();
+        let dataset = TrainingDataset::open(&data, false).unwrap();
+        let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
+        let split = Split::read(&split_file, dataset.dataset_hash()).unwrap();
+        assert_eq!(
+            model.meta.provenance.split_fingerprint(),
+            Some(split.fingerprint().as_str())
+        );
+
+        // A new run with another split, stopped before its end, leaves the pair alone.
+        let mut reshuffled = tiny_config(3);
+        reshuffled.split.seed = 7;
+        let stop = RunOptions {
+            stop_after_epochs: Some(1),
+            ..RunOptions::default()
+        };
+        assert!(
+            !train(&data, &model_path, &reshuffled, &stop)
+                .unwrap()
+                .finished
+        );
+        assert_eq!(std::fs::read(&split_file).unwrap(), own);
+
+        // Another run's split next to the model (as an older trainer left it) is refused.
+        let other = dataset.split(&reshuffled.split).unwrap();
+        assert_ne!(other.fingerprint(), split.fingerprint());
+        other.write(&split_file).unwrap();
+        let inputs = EvalInputs {
+            data_dir: data.clone(),
+            model: model_path.clone(),
+            baseline: None,
+            compare_model: None,
+            out_dir: dir.path().join("eval"),
+        };
+        let eval = EvalConfig {
+            figures: false,
+            timing_repeats: 1,
+            timing_batch: 2,
+            ..EvalConfig::default()
+        };
+        let err = evaluate(&inputs, &eval).unwrap_err();
+        assert!(
+            matches!(err, Error::Split { .. }) && err.to_string().contains("not the split"),
+            "{err}"
+        );
+
+        // A model written before the fingerprint was recorded evaluates as before.
+        let mut legacy = model;
+        legacy
+            .meta
+            .provenance
+            .extra
+            .as_object_mut()
+            .unwrap()
+            .remove(TrainingProvenance::SPLIT_FINGERPRINT_KEY);
+        legacy.save(&model_path).unwrap();
+        evaluate(&inputs, &eval).unwrap();
+    }
+
+    #[test]
     fn a_low_rank_head_starts_from_pca_and_trains() {
         let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
@@ -748,6 +888,10 @@ pub(crate) mod tests {
         };
         let first = train(&data, &path, &config, &stop(3)).unwrap();
         assert!(!first.finished && !path.exists(), "no model before the end");
+        assert!(
+            !split_path(&path).exists(),
+            "the split comes with the model"
+        );
         let state = CheckpointDir::for_model(&path)
             .read_state()
             .unwrap()
