@@ -28,7 +28,7 @@ pub struct BaselineNetConfig {
 }
 
 impl BaselineNetConfig {
-    /// Checks sizes and the dropout probability.
+    /// Checks sizes, the dropout probability and the initialisation gain.
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] naming the field to change.
@@ -43,6 +43,12 @@ impl BaselineNetConfig {
             return Err(Error::InvalidConfig(format!(
                 "dropout = {} must lie in [0, 1)",
                 self.dropout
+            )));
+        }
+        if !(self.init_gain.is_finite() && self.init_gain > 0.0) {
+            return Err(Error::InvalidConfig(format!(
+                "init_gain = {} must be a positive number (5/3 for tanh)",
+                self.init_gain
             )));
         }
         Ok(())
@@ -119,5 +125,24 @@ mod tests {
                 .validate()
                 .is_err()
         );
+    }
+
+    #[test]
+    fn invalid_configurations_are_refused_by_validate() {
+        let good = BaselineNetConfig::new(50, 32, 32);
+        good.validate().unwrap();
+        for bad in [
+            BaselineNetConfig::new(50, 32, 0),
+            BaselineNetConfig::new(0, 32, 32),
+            BaselineNetConfig::new(50, 32, 32).with_pose_dim(0),
+            BaselineNetConfig::new(50, 32, 32).with_dropout(f64::NAN),
+            BaselineNetConfig::new(50, 32, 32).with_init_gain(0.0),
+            BaselineNetConfig::new(50, 32, 32).with_init_gain(f64::INFINITY),
+        ] {
+            assert!(
+                matches!(bad.validate(), Err(Error::InvalidConfig(_))),
+                "{bad:?} was accepted"
+            );
+        }
     }
 }

@@ -18,10 +18,29 @@ pub const MIN_STD: Real = 1e-5;
 
 /// Mean and standard deviation of each displacement coordinate over the training set
 /// (metres), vertex-major (`x0 y0 z0 x1 …`).
+///
+/// Deserialising goes through [`OutputNormalizer::from_parts`], so a stored normaliser with
+/// lengths that differ, a NaN or a negative std is refused when it is read, not used.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "NormalizerParts")]
 pub struct OutputNormalizer {
     mean: Vec<Real>,
     std: Vec<Real>,
+}
+
+/// The serialised form of an [`OutputNormalizer`], validated on the way in.
+#[derive(Deserialize)]
+struct NormalizerParts {
+    mean: Vec<Real>,
+    std: Vec<Real>,
+}
+
+impl TryFrom<NormalizerParts> for OutputNormalizer {
+    type Error = crate::error::Error;
+
+    fn try_from(parts: NormalizerParts) -> Result<Self> {
+        Self::from_parts(parts.mean, parts.std)
+    }
 }
 
 impl OutputNormalizer {
@@ -206,6 +225,20 @@ mod tests {
         assert!(OutputNormalizer::fit(&[vec![f64::NAN]]).is_err());
         assert!(OutputNormalizer::from_parts(vec![0.0], vec![-1.0]).is_err());
         assert!(OutputNormalizer::from_parts(vec![0.0], vec![]).is_err());
+    }
+
+    #[test]
+    fn a_stored_normaliser_is_validated_when_read() {
+        let read = |json: &str| serde_json::from_str::<OutputNormalizer>(json);
+        for bad in [
+            r#"{"mean": [0.0, 1.0], "std": [1.0]}"#,
+            r#"{"mean": [0.0], "std": [-0.5]}"#,
+        ] {
+            assert!(read(bad).is_err(), "{bad} was accepted");
+        }
+        // A zero std reads as the floor, as when it was fitted.
+        let n = read(r#"{"mean": [0.0], "std": [0.0]}"#).unwrap();
+        assert_eq!(n.std(), &[MIN_STD]);
     }
 
     #[test]

@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use garmatnet_model::{GarMatNetModel, select_device};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -31,12 +32,15 @@ pub struct AlphaSweepRow {
 }
 
 /// Trains and evaluates one model per α in `alphas` (everything else from `config`) under
-/// `out_dir/alpha_{α}/`, and writes `alpha_sweep.md` and `alpha_sweep.json` to `out_dir`.
-/// A model that already exists is evaluated without retraining, and an interrupted training
-/// resumes from its checkpoint, so a killed sweep can simply be run again.
+/// `out_dir/alpha_{α:.2}/`, and writes `alpha_sweep.md` and `alpha_sweep.json` to `out_dir`.
+/// A model that already exists is evaluated without retraining if it was trained with this
+/// α and these settings, and an interrupted training resumes from its checkpoint, so a
+/// killed sweep can simply be run again.
 ///
 /// # Errors
-/// As [`train`] and [`evaluate`]; [`Error::InvalidConfig`] for no α or an α outside [0, 1].
+/// As [`train`] and [`evaluate`]; [`Error::InvalidConfig`] for no α, an α outside [0, 1],
+/// or two α values that share a directory (equal to two decimals); [`Error::StaleOutput`]
+/// for an existing model trained with another α or other settings.
 pub fn sweep_alpha(
     data_dir: &Path,
     out_dir: &Path,
@@ -49,9 +53,22 @@ pub fn sweep_alpha(
             "alphas {alphas:?}: give at least one value, each in [0, 1]"
         )));
     }
+    for (i, &alpha) in alphas.iter().enumerate() {
+        if let Some(&earlier) = alphas[..i]
+            .iter()
+            .find(|&&a| alpha_dir_name(a) == alpha_dir_name(alpha))
+        {
+            return Err(Error::InvalidConfig(format!(
+                "alphas {earlier} and {alpha} would share the directory `{}` (α is named with \
+                 two decimals), so one model would be reported under both; give distinct \
+                 values that differ in the first two decimals",
+                alpha_dir_name(alpha)
+            )));
+        }
+    }
     let mut rows = Vec::new();
     for &alpha in alphas {
-        let dir = out_dir.join(format!("alpha_{alpha:.2}"));
+        let dir = out_dir.join(alpha_dir_name(alpha));
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let model = dir.join("model.safetensors");
         let run = TrainConfig {
@@ -59,7 +76,9 @@ pub fn sweep_alpha(
             ..config.clone()
         };
         let mut epochs = [0, 0];
-        if !model.exists() {
+        if model.exists() {
+            check_reusable(&model, &run)?;
+        } else {
             let summary = train(
                 data_dir,
                 &model,
@@ -101,6 +120,42 @@ pub fn sweep_alpha(
         crate::report::make_readable(&out_dir.join(f));
     }
     Ok(rows)
+}
+
+/// The directory of α's model under the sweep's output directory.
+fn alpha_dir_name(alpha: f64) -> String {
+    format!("alpha_{alpha:.2}")
+}
+
+/// Checks that the existing model at `path` was trained by `run`: its nets' α, and the
+/// training configuration it records where it has one (all but `quiet` and `device`), so a
+/// directory left by a sweep with another α or other options is not reported as this one.
+///
+/// # Errors
+/// [`Error::Model`] if the model cannot be read; [`Error::StaleOutput`] if it was trained
+/// otherwise.
+fn check_reusable(path: &Path, run: &TrainConfig) -> Result<()> {
+    let model = GarMatNetModel::load(path, &select_device("cpu")?)?;
+    let stale = |what: String| Error::StaleOutput {
+        path: path.to_owned(),
+        message: format!(
+            "it was trained with {what}, not with this sweep's; remove `{}` (or choose \
+             another output directory) to train it again",
+            path.parent().unwrap_or(path).display()
+        ),
+    };
+    let stored_alpha = model.fitting.config().alpha;
+    if stored_alpha != run.alpha {
+        return Err(stale(format!("α = {stored_alpha}, not α = {}", run.alpha)));
+    }
+    if let Some(stored) = model.meta.provenance.extra.get("train_config") {
+        let same = serde_json::from_value::<TrainConfig>(stored.clone())
+            .is_ok_and(|stored| stored.same_run(run));
+        if !same {
+            return Err(stale("other training settings".into()));
+        }
+    }
+    Ok(())
 }
 
 /// Table 3 as Markdown.
@@ -157,5 +212,40 @@ mod tests {
         );
         assert_eq!(again[0].whole_mm, rows[0].whole_mm);
         assert!(sweep_alpha(&data, &out, &[1.5], &tiny_config(2), &eval).is_err());
+
+        // A model trained with other options, or left under another α's name, is not
+        // reported as this run's.
+        let err = sweep_alpha(&data, &out, &[0.3], &tiny_config(3), &eval).unwrap_err();
+        assert!(
+            matches!(err, Error::StaleOutput { .. }) && err.to_string().contains("remove"),
+            "{err}"
+        );
+        std::fs::rename(out.join("alpha_0.70"), out.join("alpha_0.50")).unwrap();
+        let err = sweep_alpha(&data, &out, &[0.5], &tiny_config(2), &eval).unwrap_err();
+        assert!(
+            matches!(err, Error::StaleOutput { .. }) && err.to_string().contains("α = 0.7"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn alphas_that_share_a_directory_are_refused_before_any_training() {
+        let dir = tempfile::tempdir().unwrap();
+        let eval = EvalConfig::default();
+        for alphas in [[0.301, 0.304], [0.5, 0.5], [0.7, 0.699]] {
+            let err = sweep_alpha(
+                &dir.path().join("no data"),
+                &dir.path().join("sweep"),
+                &alphas,
+                &tiny_config(1),
+                &eval,
+            )
+            .unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidConfig(_)) && err.to_string().contains("share"),
+                "{alphas:?}: {err}"
+            );
+        }
+        assert!(!dir.path().join("sweep").exists(), "nothing is written");
     }
 }

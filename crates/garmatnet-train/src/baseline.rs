@@ -20,7 +20,7 @@ use burn::module::Module;
 use burn::prelude::*;
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
-use garmatnet_core::SplitMix64;
+use garmatnet_core::{POSE_DIM, SplitMix64};
 use garmatnet_model::{BaselineNet, BaselineNetConfig, OutputNormalizer, select_device};
 use serde::{Deserialize, Serialize};
 
@@ -111,6 +111,33 @@ impl BaselineConfig {
     }
 }
 
+impl BaselineConfig {
+    /// Checks the loop settings as [`TrainConfig::validate`] does (learning rate, batch size,
+    /// epochs, patience, weight decay) and the replication; the net's sizes are checked when
+    /// it is built.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the field.
+    pub fn validate(&self) -> Result<()> {
+        crate::trainer::check_loop_settings(&crate::trainer::LoopConfig {
+            learning_rate: self.learning_rate,
+            batch_size: self.batch_size,
+            max_epochs: self.max_epochs,
+            patience_fitting: self.patience_fitting,
+            patience_local: self.patience_local,
+            weight_decay: self.weight_decay,
+        })?;
+        if self.replicate == Some(0) {
+            return Err(Error::InvalidConfig(
+                "replicate = 0: an epoch needs at least one pass over the training samples \
+                 (or leave it unset to match GarMatNet's training-set size)"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// One material's entry in `baseline.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BaselineMaterialEntry {
@@ -191,7 +218,7 @@ pub fn train_baseline(
     out_dir: &Path,
     config: &BaselineConfig,
 ) -> Result<BaselineManifest> {
-    crate::trainer::check_weight_decay(config.weight_decay)?;
+    config.validate()?;
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let keys = data.keys();
     let split = data.split(&config.split)?;
@@ -355,7 +382,8 @@ impl Baseline {
     ///
     /// # Errors
     /// [`Error::Io`] if `baseline.json` cannot be read; [`Error::Checkpoint`] for a corrupt
-    /// manifest or weight file.
+    /// manifest or weight file: an invalid net configuration, a normaliser that is not
+    /// finite, has a negative std or not 3 values per template vertex.
     pub fn load(dir: &Path, device: &Device) -> Result<Self> {
         let path = dir.join(BASELINE_MANIFEST);
         let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
@@ -368,8 +396,40 @@ impl Baseline {
         if manifest.version != BASELINE_VERSION {
             return Err(corrupt(format!("version {}", manifest.version)));
         }
+        // The net is built from the stored configuration before its weights are loaded, and
+        // the normalisers de-normalise 3n values: check both, or a hand-edited manifest
+        // panics (or silently mis-scales) far from here.
+        let net = &manifest.net;
+        net.validate()
+            .map_err(|e| corrupt(format!("the stored net configuration: {e}")))?;
+        let n = manifest.vertex_count;
+        if net.vertex_count != n || net.pose_dim != POSE_DIM {
+            return Err(corrupt(format!(
+                "the stored net has {} vertices and a {}-value pose input, but the baseline's \
+                 template has {n} vertices and poses have {POSE_DIM} values; train the \
+                 baseline again",
+                net.vertex_count, net.pose_dim
+            )));
+        }
+        // Rebuilt through the validating constructor, whatever path the manifest was read by.
+        let checked_norm = |e: &BaselineMaterialEntry, part: &str, norm: &OutputNormalizer| {
+            let norm = OutputNormalizer::from_parts(norm.mean().to_vec(), norm.std().to_vec())
+                .map_err(|err| corrupt(format!("`{}` {part} normaliser: {err}", e.name)))?;
+            if norm.dim() != 3 * n {
+                return Err(corrupt(format!(
+                    "`{}` {part} normaliser has {} values, the template's {n} vertices need {}; \
+                     train the baseline again",
+                    e.name,
+                    norm.dim(),
+                    3 * n
+                )));
+            }
+            Ok(norm)
+        };
         let mut materials = Vec::new();
         for e in &manifest.materials {
+            let fitting_norm = checked_norm(e, "fitting", &e.fitting_norm)?;
+            let local_norm = checked_norm(e, "local", &e.local_norm)?;
             let load = |file: &str| -> Result<BaselineNet> {
                 let p: PathBuf = dir.join(file);
                 let bytes = std::fs::read(&p).map_err(|err| Error::io(&p, err))?;
@@ -386,8 +446,8 @@ impl Baseline {
                 name: e.name.clone(),
                 fitting: load(&e.fitting_file)?.valid(),
                 local: load(&e.local_file)?.valid(),
-                fitting_norm: e.fitting_norm.clone(),
-                local_norm: e.local_norm.clone(),
+                fitting_norm,
+                local_norm,
             });
         }
         Ok(Self {
@@ -407,7 +467,9 @@ impl Baseline {
             dir: data.dir().to_owned(),
             message,
         };
-        if self.manifest.template_hash != data.template_hash() {
+        if self.manifest.template_hash != data.template_hash()
+            || self.manifest.vertex_count != data.vertex_count()
+        {
             return Err(mismatch(
                 "the baseline was trained for another garment template".into(),
             ));
@@ -450,6 +512,141 @@ mod tests {
     use super::*;
     use crate::test_util::{synthetic_dataset, training_lock};
     use crate::trainer::tests::tiny_config;
+
+    /// A baseline directory of one material with untrained nets for a 3-vertex template,
+    /// written without training, and its manifest as JSON.
+    fn hand_written_baseline(dir: &Path) -> serde_json::Value {
+        let net = BaselineNetConfig::new(3, 4, 4);
+        let device = select_device("cpu").unwrap();
+        for part in ["fitting", "local"] {
+            write_net(&dir.join(format!("m000-{part}.bpk")), &net.init(&device)).unwrap();
+        }
+        let summary = NetSummary {
+            epochs: 1,
+            best_epoch: 1,
+            best_dev_mse: 0.5,
+            initial_dev_mse: 1.0,
+            last_train_mse: 0.5,
+            seconds_per_epoch: 0.1,
+        };
+        let manifest = BaselineManifest {
+            version: BASELINE_VERSION,
+            dataset_hash: "d".into(),
+            template_hash: "t".into(),
+            vertex_count: 3,
+            net,
+            config: BaselineConfig::default(),
+            materials: vec![BaselineMaterialEntry {
+                name: "Linen".into(),
+                material: 0,
+                fitting_file: "m000-fitting.bpk".into(),
+                local_file: "m000-local.bpk".into(),
+                fitting_norm: OutputNormalizer::identity(9),
+                local_norm: OutputNormalizer::identity(9),
+                replicate: 1,
+                samples: [2, 1, 1],
+                fitting: summary.clone(),
+                local: summary,
+            }],
+        };
+        serde_json::to_value(&manifest).unwrap()
+    }
+
+    #[test]
+    fn an_edited_baseline_manifest_is_refused_not_a_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = hand_written_baseline(dir.path());
+        let device = select_device("cpu").unwrap();
+        let load = |manifest: &serde_json::Value| {
+            std::fs::write(
+                dir.path().join(BASELINE_MANIFEST),
+                serde_json::to_vec(manifest).unwrap(),
+            )
+            .unwrap();
+            Baseline::load(dir.path(), &device)
+        };
+        let loaded = load(&good).unwrap();
+        assert_eq!(loaded.materials[0].fitting_norm.dim(), 9);
+        let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut manifest = good.clone();
+            edit(&mut manifest);
+            manifest
+        };
+        let norm = |v: &mut serde_json::Value| v["materials"][0]["local_norm"].take();
+        for (bad, expect) in [
+            (
+                edited(&|m| m["net"]["hidden"] = 0.into()),
+                "net configuration",
+            ),
+            (
+                edited(&|m| m["net"]["dropout"] = 1.5.into()),
+                "net configuration",
+            ),
+            (
+                edited(&|m| m["net"]["vertex_count"] = 4.into()),
+                "4 vertices",
+            ),
+            (
+                edited(&|m| m["net"]["pose_dim"] = 73.into()),
+                "73-value pose",
+            ),
+            (
+                edited(&|m| {
+                    norm(m);
+                    m["materials"][0]["local_norm"] =
+                        serde_json::json!({ "mean": [0.0, 0.0, 0.0], "std": [1.0, 1.0, 1.0] });
+                }),
+                "local normaliser has 3 values",
+            ),
+            (
+                edited(&|m| m["materials"][0]["fitting_norm"]["std"][4] = (-1.0).into()),
+                "normaliser std",
+            ),
+            (
+                edited(&|m| {
+                    m["materials"][0]["fitting_norm"]["mean"] = serde_json::json!(vec![0.0; 8]);
+                }),
+                "std",
+            ),
+        ] {
+            let err = load(&bad).unwrap_err();
+            let text = err.to_string();
+            assert!(matches!(err, Error::Checkpoint { .. }), "{text}");
+            assert!(text.contains(expect), "{expect:?} not in {text}");
+        }
+    }
+
+    #[test]
+    fn a_baseline_config_with_zero_patience_or_replication_is_refused() {
+        for bad in [
+            BaselineConfig {
+                patience_fitting: 0,
+                ..BaselineConfig::default()
+            },
+            BaselineConfig {
+                patience_local: 0,
+                ..BaselineConfig::default()
+            },
+            BaselineConfig {
+                replicate: Some(0),
+                ..BaselineConfig::default()
+            },
+            BaselineConfig {
+                learning_rate: f64::NAN,
+                ..BaselineConfig::default()
+            },
+        ] {
+            assert!(
+                matches!(bad.validate(), Err(Error::InvalidConfig(_))),
+                "{bad:?}"
+            );
+            // Refused before the dataset is even opened.
+            let dir = tempfile::tempdir().unwrap();
+            let err = train_baseline(&dir.path().join("none"), dir.path(), &bad).unwrap_err();
+            assert!(matches!(err, Error::InvalidConfig(_)), "{err}");
+        }
+        BaselineConfig::default().validate().unwrap();
+    }
 
     #[test]
     fn the_baseline_takes_its_development_samples_at_the_dev_frames() {

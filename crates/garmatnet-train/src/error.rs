@@ -95,6 +95,17 @@ pub enum Error {
         message: String,
     },
 
+    /// An output directory already holds the result of another run (other settings), which
+    /// would otherwise be reported as this one's. Remove the directory, or choose another
+    /// output directory, and run again.
+    #[error("`{path}` holds another run's output: {message}")]
+    StaleOutput {
+        /// The file or directory left by the other run.
+        path: PathBuf,
+        /// What differs, and what to do.
+        message: String,
+    },
+
     /// Drawing a chart failed (plotters).
     #[error("cannot draw the plot `{path}`: {message}")]
     Plot {

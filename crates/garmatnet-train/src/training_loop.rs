@@ -301,6 +301,23 @@ pub(crate) fn fit_net<M: Trainable>(
     budget: &mut Option<usize>,
     progress: &Progress,
 ) -> Result<Outcome<M>> {
+    // The configs are validated before training; a zero here would end the loop before its
+    // first epoch and hand back an untrained net with an infinite "best" dev loss.
+    if settings.patience == 0
+        || settings.max_epochs == 0
+        || settings.batch_size == 0
+        || settings.replicate == 0
+    {
+        return Err(Error::InvalidConfig(format!(
+            "the {} net needs a positive patience, epoch limit, batch size and replication \
+             (got {}, {}, {}, {})",
+            settings.name,
+            settings.patience,
+            settings.max_epochs,
+            settings.batch_size,
+            settings.replicate
+        )));
+    }
     let device = sets.train.poses.device();
     let mut optimizer: ModuleOptimizer = if settings.weight_decay > 0.0 {
         #[allow(clippy::cast_possible_truncation)]
