@@ -237,7 +237,7 @@ fn poses_from_npy<R: Read>(npy: NpyFile<R>, path: &Path) -> Result<Vec<Pose>> {
     // A crafted shape can overflow the element count (npyz's too): refuse it by size first.
     if frames
         .checked_mul(width as u64)
-        .and_then(|n| n.checked_mul(float_bytes.max(1) as u64))
+        .and_then(|n| n.checked_mul(float_bytes.max(1)))
         .is_none_or(|bytes| bytes > MAX_POSE_ARRAY_BYTES)
     {
         return Err(parse(

@@ -94,18 +94,17 @@ pub fn merge_shards(
 ) -> crate::Result<MergeReport> {
     let dest = dest.as_ref();
     // Merging a dataset into itself would delete each sample's marker before copying it.
-    if let Ok(dest_path) = std::fs::canonicalize(dest) {
-        if let Some(src) = sources
+    if let Ok(dest_path) = std::fs::canonicalize(dest)
+        && let Some(src) = sources
             .iter()
             .find(|src| std::fs::canonicalize(src).is_ok_and(|s| s == dest_path))
-        {
-            return Err(garmatnet_core::Error::InvalidArgument(format!(
-                "{} is both a source and the destination of the merge: merge the shards \
+    {
+        return Err(garmatnet_core::Error::InvalidArgument(format!(
+            "{} is both a source and the destination of the merge: merge the shards \
                  into a new or another directory",
-                src.display()
-            ))
-            .into());
-        }
+            src.display()
+        ))
+        .into());
     }
     // Every source is read before `dest` is created, so a missing source leaves nothing.
     let manifests = sources
