@@ -48,7 +48,7 @@ pub use material_bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, Materi
 pub use material_presets::{PAPER_TEST_MATERIALS, Preset, find_preset, preset_names, presets};
 pub use math::{Iso3, Mat3, Real, Rot3, UnitQuat, Vec3};
 pub use mesh::{Aabb, Adjacency, TriMesh};
-pub use pose::{JointLimits, POSE_DIM, Pose, SMPLH_POSE_DIM};
+pub use pose::{JointLimits, MAX_POSE_COMPONENT, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use pose_file::{read_pose_frame_rate, read_poses, write_poses_json};
 pub use rng::SplitMix64;
 pub use sdf::{PUSH_SLACK, SignedDistance, SkinnedBody, Sphere, unit_normal};

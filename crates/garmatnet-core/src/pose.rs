@@ -14,6 +14,9 @@ pub const POSE_DIM: usize = JOINT_COUNT * 3;
 /// The length of an SMPL+H (AMASS) pose vector: 52 joints × 3.
 pub const SMPLH_POSE_DIM: usize = 156;
 
+/// The largest magnitude (radians) [`Pose::validate`] accepts for an axis-angle component.
+pub const MAX_POSE_COMPONENT: Real = 1e3;
+
 /// An SMPL pose θ: one axis-angle rotation (radians) per joint, relative to its parent,
 /// in SMPL's joint order; joint 0 is the global root orientation. There is no global
 /// translation: garments are predicted relative to the posed body.
@@ -55,7 +58,7 @@ impl Pose {
     ///
     /// # Errors
     /// [`Error::WrongLength`] unless `values.len() == 72` (for AMASS's 156-vectors use
-    /// [`Pose::from_smplh`]); [`Error::NonFinite`] for NaN or infinity.
+    /// [`Pose::from_smplh`]); as [`Pose::validate`] for NaN, infinity or an absurd angle.
     pub fn from_slice(values: &[Real]) -> Result<Self> {
         if values.len() != POSE_DIM {
             return Err(Error::WrongLength {
@@ -66,12 +69,39 @@ impl Pose {
                 got: values.len(),
             });
         }
-        ensure_finite("SMPL pose vector", values.iter().copied())?;
-        Ok(Self {
+        let pose = Self {
             axis_angle: std::array::from_fn(|j| {
                 Vec3::new(values[3 * j], values[3 * j + 1], values[3 * j + 2])
             }),
-        })
+        };
+        pose.validate()?;
+        Ok(pose)
+    }
+
+    /// Checks every component: finite and at most [`MAX_POSE_COMPONENT`] radians in
+    /// magnitude. Constructors that read values check it; call it on a pose assembled with
+    /// [`Pose::set_joint`] before handing it to code that cannot take NaN (the solver).
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`] for NaN or infinity; [`Error::OutOfRange`] for a component
+    /// beyond [`MAX_POSE_COMPONENT`] (a joint's squared angle would overflow to infinity
+    /// near 1e154, and no rotation needs more than a few π).
+    pub fn validate(&self) -> Result<()> {
+        let values = self.axis_angle.iter().flat_map(|v| [v.x, v.y, v.z]);
+        ensure_finite("SMPL pose vector", values.clone())?;
+        if let Some((i, v)) = values
+            .enumerate()
+            .find(|(_, v)| v.abs() > MAX_POSE_COMPONENT)
+        {
+            return Err(Error::OutOfRange {
+                what: format!("SMPL pose component {i} (radians)"),
+                value: v,
+                min: -MAX_POSE_COMPONENT,
+                max: MAX_POSE_COMPONENT,
+                hint: "; axis-angle values are angles, a few π at most".into(),
+            });
+        }
+        Ok(())
     }
 
     /// A pose from a 72-vector (SMPL) or a 156-vector (SMPL+H, as in AMASS's `poses`).
@@ -314,6 +344,14 @@ mod tests {
             Pose::from_slice(&v),
             Err(Error::NonFinite { index: 40, .. })
         ));
+        // Finite, but its squared angle overflows: refused by magnitude.
+        v[40] = 1e300;
+        assert!(matches!(
+            Pose::from_slice(&v),
+            Err(Error::OutOfRange { .. })
+        ));
+        v[40] = -MAX_POSE_COMPONENT;
+        assert!(Pose::from_slice(&v).is_ok());
         let mut v = vec![0.0; 156];
         v[150] = f64::INFINITY; // even in the dropped hand joints
         assert!(matches!(Pose::from_smplh(&v), Err(Error::NonFinite { .. })));

@@ -324,9 +324,11 @@ impl FrameStepper {
     /// its stats say `converged: false`.
     ///
     /// # Errors
-    /// As [`DrapeSolver::drape_with_anchors`]; the positions are then left at the last
-    /// finite iterate.
+    /// As [`Pose::validate`] for a NaN or absurd pose, before anything moves; as
+    /// [`DrapeSolver::drape_with_anchors`], the positions then left at the last finite
+    /// iterate.
     pub fn step(&mut self, pose: &Pose) -> Result<DrapeStats> {
+        pose.validate()?;
         let next = self.posed.body().pose(pose);
         if self.follow_body {
             self.posed.carry_to(&next, &mut self.positions);
@@ -449,6 +451,9 @@ pub fn drape_sequence(
     mut on_sample: impl FnMut(usize, &[Vec3], &DrapeStats) -> Result<()>,
 ) -> Result<Vec<DrapeStats>> {
     settings.validate()?;
+    for pose in poses {
+        pose.validate()?;
+    }
     let model = cloth_from_garment(garment, material)?;
     let full = settings.drape.clone();
     let quick = DrapeSettings {

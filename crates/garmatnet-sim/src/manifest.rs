@@ -170,6 +170,10 @@ impl DatasetSpec {
                 got: self.frames.len().to_string(),
             });
         }
+        for (i, pose) in self.poses.iter().enumerate() {
+            pose.validate()
+                .map_err(|e| Error::InvalidArgument(format!("dataset pose {i}: {e}")))?;
+        }
         for (i, m) in self.materials.iter().enumerate() {
             if self.materials[..i].iter().any(|o| o.name == m.name) {
                 return Err(Error::InvalidArgument(format!(

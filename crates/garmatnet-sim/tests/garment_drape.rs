@@ -477,6 +477,16 @@ fn a_frame_stepper_refuses_positions_it_cannot_step_from() {
         &garment.rest.vertices[..],
         "a refused restart changes nothing"
     );
+    // A pose assembled with a NaN (set_joint does not check) is refused before anything
+    // moves, so the stepper stays usable.
+    let mut nan_pose = Pose::zero();
+    nan_pose.set_joint(16, Vec3::new(Real::NAN, 0.0, 0.0));
+    assert!(stepper.step(&nan_pose).is_err());
+    assert_eq!(
+        stepper.positions(),
+        &garment.rest.vertices[..],
+        "a refused step changes nothing"
+    );
 }
 
 /// A stiff fabric pressed against the body by its own tension (Trim Fusible Rigid on the

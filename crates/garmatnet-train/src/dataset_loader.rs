@@ -277,8 +277,15 @@ impl TrainingDataset {
                 .iter()
                 .zip(&body_points)
                 .map(|(s, b)| (to_vec3(s) - b).norm())
-                .fold(0.0, f64::max);
-            if worst > BODY_POINT_TOLERANCE {
+                // NaN wins (f64::max would drop it), so a non-finite point fails the check.
+                .fold(0.0, |worst: f64, d| {
+                    if worst.is_nan() || d.is_nan() {
+                        f64::NAN
+                    } else {
+                        worst.max(d)
+                    }
+                });
+            if !(worst <= BODY_POINT_TOLERANCE) {
                 return Err(Error::Dataset {
                     dir: self.dir().to_owned(),
                     message: format!(
