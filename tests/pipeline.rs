@@ -512,5 +512,34 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     for file in ["bench.md", "pareto.png"] {
         assert!(dir.join("bench").join(file).exists(), "{file}");
     }
+    // A variant that trained on the main model's test samples (here: every fabric) would be
+    // measured on its own training data: refused before anything is simulated or written.
+    garmatnet(
+        &[
+            &["train", "--out", "every-fabric.safetensors"][..],
+            &["--test-materials", "none"],
+            &small,
+        ]
+        .concat(),
+        dir,
+    )?;
+    let leaky = garmatnet(
+        &[
+            "bench",
+            "--data",
+            "data",
+            "--model",
+            "model.safetensors",
+            "--variant",
+            "leaky=every-fabric.safetensors",
+            "--out",
+            "bench-leaky",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(leaky.contains("another test set"), "{leaky}");
+    assert!(!dir.join("bench-leaky").exists());
     Ok(())
 }

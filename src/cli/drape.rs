@@ -98,7 +98,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     if let Some(fps) = args.fps
         && !(fps.is_finite() && fps > 0.0)
     {
-        bail!("--fps must be a positive number of frames a second, got {fps}");
+        bail!("--fps must be a positive number of frames a second, got {fps:?}");
     }
     let sequence = match &args.frames {
         Some(frames) => {

@@ -28,7 +28,8 @@ pub struct BaselineNetConfig {
 }
 
 impl BaselineNetConfig {
-    /// Checks sizes, the dropout probability and the initialisation gain.
+    /// Checks sizes (positive, at most [`crate::MAX_PARAMETERS`] weights), the dropout
+    /// probability and the initialisation gain.
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] naming the field to change.
@@ -51,7 +52,14 @@ impl BaselineNetConfig {
                 self.init_gain
             )));
         }
-        Ok(())
+        crate::garmatnet_net::check_parameter_count(
+            "the baseline",
+            &[
+                (self.pose_dim, self.pose_hidden),
+                (self.pose_hidden, self.hidden),
+                (self.hidden, self.vertex_count.saturating_mul(3)),
+            ],
+        )
     }
 
     /// A baseline with Kaiming-normal weights and zero biases.

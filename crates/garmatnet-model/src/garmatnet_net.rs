@@ -16,6 +16,28 @@ use crate::error::{Error, Result};
 /// The number of material coordinates ω (paper §3.1).
 pub const MATERIAL_DIM: usize = 6;
 
+/// The most weights a network may have (both nets' configurations are checked against it):
+/// 500 million, 2 GB of f32, some 75 times the shipped paper-resolution nets together. A
+/// larger size from a command line or a file would abort the process on allocation instead
+/// of failing with a message.
+pub const MAX_PARAMETERS: usize = 500_000_000;
+
+/// Checks that a network of `layers` (fan-in, fan-out) pairs has at most
+/// [`MAX_PARAMETERS`] weights.
+pub(crate) fn check_parameter_count(what: &str, layers: &[(usize, usize)]) -> Result<()> {
+    let count = layers
+        .iter()
+        .try_fold(0usize, |sum, &(a, b)| a.checked_mul(b)?.checked_add(sum));
+    match count {
+        Some(n) if n <= MAX_PARAMETERS => Ok(()),
+        _ => Err(Error::InvalidConfig(format!(
+            "{what} would have {} weights, more than the {MAX_PARAMETERS} allowed: choose \
+             smaller hidden sizes or an output rank",
+            count.map_or_else(|| "more than 2^64".to_owned(), |n| n.to_string())
+        ))),
+    }
+}
+
 /// How the pose branch reads θ.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -207,7 +229,8 @@ impl GarMatNetConfig {
         3 * self.vertex_count
     }
 
-    /// Checks that every size is positive and α, dropout and the rank are in range.
+    /// Checks that every size is positive, the weights at most [`MAX_PARAMETERS`], and α,
+    /// dropout and the rank in range.
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] naming the field to change.
@@ -254,6 +277,22 @@ impl GarMatNetConfig {
                 self.output_dim()
             )));
         }
+        let head = match self.output_rank {
+            Some(k) => vec![(self.hidden, k), (k, self.output_dim())],
+            None => vec![(self.hidden, self.output_dim())],
+        };
+        check_parameter_count(
+            "the network",
+            &[
+                &[
+                    (self.pose_dim, self.pose_hidden),
+                    (self.material_dim, self.material_hidden),
+                    (self.pose_hidden + self.material_hidden, self.hidden),
+                ][..],
+                &head,
+            ]
+            .concat(),
+        )?;
         Ok(())
     }
 
@@ -557,6 +596,22 @@ mod tests {
 
     fn config() -> GarMatNetConfig {
         GarMatNetConfig::new(50, 32, 16, 32)
+    }
+
+    #[test]
+    fn sizes_beyond_the_parameter_cap_are_refused_not_allocated() {
+        let huge = GarMatNetConfig {
+            hidden: 1_000_000_000_000,
+            ..GarMatNetConfig::new(100, 512, 64, 512)
+        };
+        let err = huge.validate().unwrap_err().to_string();
+        assert!(err.contains("weights"), "{err}");
+        let overflow = GarMatNetConfig {
+            pose_hidden: usize::MAX,
+            ..GarMatNetConfig::new(100, 512, 64, 512)
+        };
+        assert!(overflow.validate().is_err());
+        assert!(GarMatNetConfig::new(4350, 512, 64, 512).validate().is_ok());
     }
 
     #[test]

@@ -98,8 +98,8 @@ pub struct BenchInputs {
 /// `inputs.out_dir`.
 ///
 /// # Errors
-/// [`Error::Split`] if the main model has no split; dataset, model and baseline loading
-/// errors; [`Error::InvalidConfig`] for zero samples, budgets, batch or repeats.
+/// [`Error::Split`] if the main model has no split, or a variant's split holds out other
+/// test samples (or it has none); dataset, model and baseline loading errors; [`Error::InvalidConfig`] for zero samples, budgets, batch or repeats.
 pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchReport> {
     if config.samples == 0 || config.batch == 0 || config.repeats == 0 {
         return Err(Error::InvalidConfig(
@@ -119,6 +119,28 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
             path: split_path(&inputs.model),
             message: "no held-out sample of a target material after the first frame".into(),
         });
+    }
+    // Each variant must hold out the same test samples as the main model, or its error
+    // could be measured on its own training data; checked before the simulator's long phase.
+    for (name, path) in &inputs.variants {
+        let variant = GarMatNetModel::load(path, &select_device("cpu")?)?;
+        variant.ensure_template(data.template_hash(), data.vertex_count())?;
+        let theirs = Split::read_for_model(
+            path,
+            &variant.meta.provenance,
+            data.spec(),
+            data.dataset_hash(),
+        )?;
+        if theirs.test != split.test {
+            return Err(Error::Split {
+                path: split_path(path),
+                message: format!(
+                    "variant `{name}` was trained with another test set than the main model, \
+                     so some of the benched samples may be its training data; train it with \
+                     the same split settings"
+                ),
+            });
+        }
     }
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "benchmark")?;
     let spec = data.spec();

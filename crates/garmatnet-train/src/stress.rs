@@ -37,12 +37,15 @@ impl StressReport {
     }
 }
 
+/// The largest batch [`stress_predictor`] takes: 4,096 garments, ~200 MB at paper resolution.
+pub const MAX_STRESS_BATCH: usize = 4096;
+
 /// Predicts `count` random pairs, seeded: poses uniformly within the joint limits (the whole
 /// admissible range, [`JointLimits::sample`] at amplitude 1), materials uniform in the
 /// normalised ω cube, both nets (`Detail::Full`), in batches of `batch`.
 ///
 /// # Errors
-/// [`Error::InvalidConfig`] for a zero batch; [`garmatnet_model::Error::NonFiniteOutput`]
+/// [`Error::InvalidConfig`] for a batch outside 1 to [`MAX_STRESS_BATCH`]; [`garmatnet_model::Error::NonFiniteOutput`]
 /// (naming the batch item) at the first NaN or infinite output; `predictor` must have been
 /// built with a body ([`Predictor::for_garment`]), or [`Error::InvalidConfig`].
 pub fn stress_predictor(
@@ -51,10 +54,11 @@ pub fn stress_predictor(
     seed: u64,
     batch: usize,
 ) -> Result<StressReport> {
-    if batch == 0 {
-        return Err(Error::InvalidConfig(
-            "stress batch must be at least 1".into(),
-        ));
+    if !(1..=MAX_STRESS_BATCH).contains(&batch) {
+        return Err(Error::InvalidConfig(format!(
+            "stress batch = {batch} must lie in [1, {MAX_STRESS_BATCH}] (a batch's garments \
+             are held at once; throughput stops growing long before)"
+        )));
     }
     let body = predictor.body().ok_or_else(|| {
         Error::InvalidConfig(
