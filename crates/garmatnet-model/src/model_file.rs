@@ -258,7 +258,15 @@ impl GarMatNetModel {
                  min <= max: {range:?}; re-train the model or remove the field"
             )));
         }
-        for fabric in &self.meta.provenance.training_fabrics {
+        let fabrics = &self.meta.provenance.training_fabrics;
+        for (i, fabric) in fabrics.iter().enumerate() {
+            if fabrics[..i].iter().any(|other| other.name == fabric.name) {
+                return Err(Error::InvalidConfig(format!(
+                    "the recorded training fabric {:?} is listed twice; re-train the model or \
+                     remove the field",
+                    fabric.name
+                )));
+            }
             let outside = self
                 .meta
                 .provenance
@@ -266,13 +274,13 @@ impl GarMatNetModel {
                 .as_ref()
                 .is_some_and(|range| !range.outside(&fabric.omega).is_empty());
             if fabric.name.trim().is_empty()
-                || !fabric.omega.iter().all(|v| v.is_finite())
+                || !fabric.omega.iter().all(|v| (0.0..=1.0).contains(v))
                 || outside
             {
                 return Err(Error::InvalidConfig(format!(
-                    "the recorded training fabric {:?} needs a name and a finite normalised ω \
-                     inside the recorded training range: {:?}; re-train the model or remove \
-                     the field",
+                    "the recorded training fabric {:?} needs a name and a normalised ω in \
+                     [0, 1] inside the recorded training range: {:?}; re-train the model or \
+                     remove the field",
                     fabric.name, fabric.omega
                 )));
             }
@@ -577,6 +585,16 @@ mod tests {
                     && err.to_string().contains("training fabric"),
                 "{err}"
             );
+        }
+        // Without a recorded range: ω must still be normalised, and names unique.
+        model.meta.provenance.material_range = None;
+        for bad in [
+            vec![fabric("Linen", [5.0; MATERIAL_DIM])],
+            vec![fabric("Linen", inside), fabric("Linen", inside)],
+        ] {
+            model.meta.provenance.training_fabrics = bad;
+            let err = model.validate().unwrap_err();
+            assert!(err.to_string().contains("training fabric"), "{err}");
         }
     }
 
