@@ -417,6 +417,13 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
         .unwrap_err()
         .to_string();
     assert!(both.contains("both a reference and a test pose"), "{both}");
+    let twice = eval_calibration(&["--reference-poses", "2,2"])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        twice.contains("reference pose 2 is listed twice"),
+        "{twice}"
+    );
     let past = eval_calibration(&["--test-poses", "12"])
         .unwrap_err()
         .to_string();

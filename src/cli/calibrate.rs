@@ -76,6 +76,16 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     };
     let settings = CalibrationSettings { ridge: args.ridge };
     settings.validate()?;
+    // Before the simulator's seconds: an --out in a directory that is not there.
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        bail!(
+            "--out {}: the directory {} does not exist; create it first",
+            args.out.display(),
+            dir.display()
+        );
+    }
     let device = select_device("cpu")?;
     let model_path = args.model.clone().unwrap_or_else(default_model_path);
     let predictor = Predictor::from_file(&model_path, &device)?;

@@ -96,17 +96,30 @@ impl TrainingProvenance {
             .and_then(serde_json::Value::as_str)
     }
 
-    /// Checks that every recorded number survives JSON: a NaN or infinite loss would be
-    /// written as `null`, and the file could then not be read back.
+    /// Checks that every recorded number survives JSON (a NaN or infinite loss would be
+    /// written as `null`, and the file could then not be read back) and that a recorded
+    /// split fingerprint is a string.
     ///
     /// # Errors
-    /// [`Error::InvalidConfig`] naming the loss.
+    /// [`Error::InvalidConfig`] naming the loss or the fingerprint.
     pub fn validate(&self) -> Result<()> {
         if let Some((name, value)) = self.losses.iter().find(|(_, v)| !v.is_finite()) {
             return Err(Error::InvalidConfig(format!(
                 "the recorded loss `{name}` is {value}; only finite numbers can be stored (a \
                  model file with it would not load). Train at least one epoch per net, or \
                  leave the loss out of the provenance"
+            )));
+        }
+        // Present but not a string would read as "no fingerprint" and skip the split check.
+        if self
+            .extra
+            .get(Self::SPLIT_FINGERPRINT_KEY)
+            .is_some_and(|v| !v.is_string())
+        {
+            return Err(Error::InvalidConfig(format!(
+                "the recorded `{}` must be the split's fingerprint, a string; the file was \
+                 edited: re-train the model or restore the file",
+                Self::SPLIT_FINGERPRINT_KEY
             )));
         }
         Ok(())
@@ -756,6 +769,10 @@ mod tests {
             back.meta.provenance.split_fingerprint(),
             Some("0123456789abcdef")
         );
+        // A fingerprint that is not a string would skip the split check: refused.
+        model.meta.provenance.extra[TrainingProvenance::SPLIT_FINGERPRINT_KEY] =
+            serde_json::json!(42);
+        assert!(model.save(&path).is_err());
     }
 
     #[test]

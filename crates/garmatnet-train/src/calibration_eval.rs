@@ -80,6 +80,18 @@ pub fn evaluate_calibration(
             )));
         }
     }
+    for (what, poses) in [("reference", reference_poses), ("test", given_tests)] {
+        if let Some((i, &twice)) = poses
+            .iter()
+            .enumerate()
+            .find(|(i, p)| poses[..*i].contains(p))
+        {
+            return Err(Error::InvalidConfig(format!(
+                "{what} pose {twice} is listed twice (entry {i}): a pose counted twice would \
+                 weigh twice in the fit or the mean; list each once"
+            )));
+        }
+    }
     if let Some(&both) = given_tests.iter().find(|p| reference_poses.contains(p)) {
         return Err(Error::InvalidConfig(format!(
             "pose {both} is both a reference and a test pose: the calibration is fitted there, \
