@@ -1281,3 +1281,101 @@ exec "$@""#;
     );
     Ok(())
 }
+
+/// `ensemble a b --out a` replaced member a, and `ensemble s s s` wrote a three-member
+/// ensemble of one model (three times the cost, no averaging); both are refused before
+/// anything is written, as are copies of one member and more than 16 members.
+#[test]
+fn ensemble_refuses_its_own_member_as_output_and_duplicate_members() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let a = coarse_model(dir.path())?;
+    // A second member with other bytes (same nets, other provenance) and a copy of the first.
+    let device = garmatnet::select_device("cpu")?;
+    let mut other = garmatnet::GarMatNetModel::load(&a, &device)?;
+    other.meta.provenance.command = "garmatnet train --seed 2".into();
+    let b = dir.path().join("b.safetensors");
+    other.save(&b)?;
+    let copy = dir.path().join("copy.safetensors");
+    std::fs::copy(&a, &copy)?;
+    let a_bytes = std::fs::read(&a)?;
+    let (a_str, b_str, copy_str) = (
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        copy.to_str().unwrap(),
+    );
+    let out = dir.path().join("ensemble.safetensors");
+    let out_str = out.to_str().unwrap();
+
+    let member_out = garmatnet()
+        .args(["ensemble", a_str, b_str, "--out", a_str])
+        .env_remove("RUST_BACKTRACE")
+        .output()?;
+    let stderr = String::from_utf8_lossy(&member_out.stderr);
+    assert!(!member_out.status.success());
+    assert!(stderr.contains("would replace the member"), "{stderr}");
+    // The same file through another spelling of its path.
+    let dotted = dir.path().join(".").join("coarse.safetensors");
+    let dotted_out = garmatnet()
+        .args(["ensemble", a_str, b_str, "--out"])
+        .arg(&dotted)
+        .env_remove("RUST_BACKTRACE")
+        .output()?;
+    assert!(!dotted_out.status.success());
+    assert_eq!(std::fs::read(&a)?, a_bytes, "member a was changed");
+
+    assert_fails_cleanly(
+        &["ensemble", a_str, a_str, a_str, "--out", out_str],
+        "same file, given twice",
+        &out,
+    )?;
+    assert_fails_cleanly(
+        &["ensemble", a_str, b_str, copy_str, "--out", out_str],
+        "copies of one model",
+        &out,
+    )?;
+    let many: Vec<&str> = std::iter::repeat_n(a_str, 17).collect();
+    assert_fails_cleanly(
+        &[&["ensemble", "--out", out_str][..], &many].concat(),
+        "at most 16 members",
+        &out,
+    )?;
+
+    // Two different members make an ensemble.
+    let made = garmatnet()
+        .args(["ensemble", a_str, b_str, "--out", out_str])
+        .output()?;
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    assert!(String::from_utf8_lossy(&made.stdout).contains("2 members"));
+    Ok(())
+}
+
+/// `template --out t.glb` and `body --out b.png` wrote OBJ text under another format's name;
+/// only `.obj` (any case) is accepted, and nothing is written otherwise.
+#[test]
+fn template_and_body_refuse_an_output_that_is_not_obj() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    for (command, name) in [
+        ("template", "t.glb"),
+        ("template", "t"),
+        ("body", "b.png"),
+        ("body", "b.ply"),
+    ] {
+        let out = dir.path().join(name);
+        assert_fails_cleanly(
+            &[command, "--out", out.to_str().unwrap()],
+            "writes only Wavefront OBJ",
+            &out,
+        )?;
+    }
+    for (command, name) in [("template", "T.OBJ"), ("body", "B.Obj")] {
+        let out = dir.path().join(name);
+        let status = garmatnet().args([command, "--out"]).arg(&out).status()?;
+        assert!(status.success(), "{command} --out {name}");
+        assert!(garmatnet::core::read_obj(&out)?.vertex_count() > 0);
+    }
+    Ok(())
+}

@@ -11,7 +11,7 @@ use garmatnet::train::resolve_pose;
 /// Write the capsule body (SMPL's neutral proportions) as an OBJ, in the rest T-pose or posed.
 #[derive(Debug, Args)]
 pub struct BodyArgs {
-    /// Output OBJ file.
+    /// Output OBJ file (the only format: the name must end in .obj).
     #[arg(long)]
     pub out: PathBuf,
     /// A frame of the built-in motion sequence, or a pose file (.json list of 72-vectors,
@@ -25,6 +25,7 @@ pub struct BodyArgs {
 
 /// Runs the command.
 pub fn run(args: &BodyArgs) -> Result<()> {
+    super::template::require_obj_extension(&args.out, "body")?;
     let pose = resolve_pose(args.pose.as_deref(), args.frame)?;
     if let Err(e) = JointLimits::default().validate(&pose, 1e-6) {
         warnln!("note: {e} (the body is posed anyway; garments are only trained within limits)");

@@ -1,27 +1,180 @@
 //! `garmatnet ensemble`: several trained models averaged into one model file.
 
-use std::path::PathBuf;
+use std::io::Read;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::model::{GarMatNetModel, select_device};
 use garmatnet::train::{Split, split_path};
 
+/// The most members an ensemble takes. Its merged layer is block-diagonal over the members,
+/// so the model file and each prediction grow with the square of the member count, while
+/// the error stops falling after a handful of members (EXPERIMENTS.md, "Ensembles").
+pub const MAX_MEMBERS: usize = 16;
+
 /// Average models trained with different seeds into one model (the mean of their
 /// predictions; one wider net of the same architecture and file format).
 #[derive(Debug, Args)]
 pub struct EnsembleArgs {
-    /// The member models (two or more `.safetensors` files from `garmatnet train` with the
-    /// same data and options except `--seed`).
+    /// The member models (2 to 16 different `.safetensors` files from `garmatnet train` with
+    /// the same data and options except `--seed`).
     #[arg(required = true, num_args = 2..)]
     pub models: Vec<PathBuf>,
-    /// The model file to write; the members' common split file is written next to it.
+    /// The model file to write (not one of the members); the members' common split file is
+    /// written next to it.
     #[arg(long)]
     pub out: PathBuf,
 }
 
+/// What makes two paths one file: the canonical path (symbolic links and `..` resolved) and,
+/// on Unix, the device and inode, which hard links share.
+#[derive(Debug)]
+struct FileIdentity {
+    canonical: PathBuf,
+    #[cfg(unix)]
+    inode: (u64, u64),
+}
+
+impl FileIdentity {
+    /// The identity of the existing file at `path`.
+    fn of(path: &Path) -> std::io::Result<Self> {
+        let canonical = std::fs::canonicalize(path)?;
+        #[cfg(unix)]
+        let inode = {
+            use std::os::unix::fs::MetadataExt;
+            let meta = std::fs::metadata(&canonical)?;
+            (meta.dev(), meta.ino())
+        };
+        Ok(Self {
+            canonical,
+            #[cfg(unix)]
+            inode,
+        })
+    }
+
+    fn same_file(&self, other: &Self) -> bool {
+        #[cfg(unix)]
+        if self.inode == other.inode {
+            return true;
+        }
+        self.canonical == other.canonical
+    }
+}
+
+/// Whether the files at `a` and `b` hold the same bytes (copies of one model). Reads them
+/// in chunks, so members of any size are compared without holding them in memory.
+fn same_bytes(a: &Path, b: &Path) -> Result<bool> {
+    let open =
+        |p: &Path| std::fs::File::open(p).with_context(|| format!("opening {}", p.display()));
+    let (mut file_a, mut file_b) = (open(a)?, open(b)?);
+    let length = |f: &std::fs::File, p: &Path| {
+        f.metadata()
+            .map(|m| m.len())
+            .with_context(|| format!("reading {}", p.display()))
+    };
+    if length(&file_a, a)? != length(&file_b, b)? {
+        return Ok(false);
+    }
+    const CHUNK: usize = 1 << 16;
+    let (mut chunk_a, mut chunk_b) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
+    loop {
+        let read_a = read_full(&mut file_a, &mut chunk_a)
+            .with_context(|| format!("reading {}", a.display()))?;
+        let read_b = read_full(&mut file_b, &mut chunk_b)
+            .with_context(|| format!("reading {}", b.display()))?;
+        if chunk_a[..read_a] != chunk_b[..read_b] {
+            return Ok(false);
+        }
+        if read_a < CHUNK {
+            return Ok(true);
+        }
+    }
+}
+
+/// Fills `buffer` from `file` as far as the file goes; the count read (short only at the end).
+fn read_full(file: &mut std::fs::File, buffer: &mut [u8]) -> std::io::Result<usize> {
+    let mut filled = 0;
+    while filled < buffer.len() {
+        match file.read(&mut buffer[filled..])? {
+            0 => break,
+            n => filled += n,
+        }
+    }
+    Ok(filled)
+}
+
+/// Refuses, before anything is loaded or written, more than [`MAX_MEMBERS`] members, a
+/// member given twice (the same file, or a copy with the same bytes: averaging a model with
+/// itself costs as much as another member and adds nothing), and an `out` that is one of
+/// the members or their split files (writing it would destroy a member).
+fn check_members(models: &[PathBuf], out: &Path) -> Result<()> {
+    if models.len() > MAX_MEMBERS {
+        bail!(
+            "an ensemble takes at most {MAX_MEMBERS} members, got {}: its merged layer, and \
+             with it the model's size and prediction time, grows with the square of the \
+             member count; average at most {MAX_MEMBERS} models",
+            models.len()
+        );
+    }
+    let identities = models
+        .iter()
+        .map(|p| {
+            FileIdentity::of(p).with_context(|| format!("opening member model {}", p.display()))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for (i, identity) in identities.iter().enumerate() {
+        for (j, earlier) in identities[..i].iter().enumerate() {
+            if identity.same_file(earlier) {
+                bail!(
+                    "{} and {} are the same file, given twice: averaging a model with itself \
+                     costs another member's size and time and improves nothing; give each \
+                     member once (models trained with different `--seed`)",
+                    models[j].display(),
+                    models[i].display()
+                );
+            }
+            if same_bytes(&models[j], &models[i])? {
+                bail!(
+                    "{} and {} are copies of one model (the same bytes): averaging a model \
+                     with itself costs another member's size and time and improves nothing; \
+                     give models trained with different `--seed`",
+                    models[j].display(),
+                    models[i].display()
+                );
+            }
+        }
+    }
+    if out.exists() {
+        let target = FileIdentity::of(out).with_context(|| format!("opening {}", out.display()))?;
+        for (path, identity) in models.iter().zip(&identities) {
+            if target.same_file(identity) {
+                bail!(
+                    "--out {} is the member {}: writing the ensemble there would replace the \
+                     member; choose another output file",
+                    out.display(),
+                    path.display()
+                );
+            }
+            let split = split_path(path);
+            if let Ok(split_identity) = FileIdentity::of(&split)
+                && target.same_file(&split_identity)
+            {
+                bail!(
+                    "--out {} is the split file of the member {}: writing the ensemble there \
+                     would replace it; choose another output file (`*.safetensors`)",
+                    out.display(),
+                    path.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Runs the command.
 pub fn run(args: &EnsembleArgs) -> Result<()> {
+    check_members(&args.models, &args.out)?;
     let device = select_device("cpu")?;
     let members = args
         .models

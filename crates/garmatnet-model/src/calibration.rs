@@ -68,6 +68,15 @@ pub const CALIBRATION_VERSION: u32 = 1;
 /// for how it was chosen.
 pub const DEFAULT_RIDGE: Real = 0.1;
 
+/// The largest sum of absolute weights ([`FabricCalibration::own_weight`] and every
+/// training fabric's) a calibration may have. Ridge-fitted weights are of order one (the
+/// ridge keeps them near the uncalibrated nets' 1, 0, …, 0; a degenerate drape, every
+/// vertex at one point, fitted 138 at the default ridge); weights that still sum to one but
+/// pass this generous bound cancel huge multiples of the nets' predictions and put the
+/// garment anywhere (an edited file moved it 126 km), so [`FabricCalibration::check_for`]
+/// refuses them and [`Predictor::calibrate`] refuses to fit them.
+pub const MAX_ABSOLUTE_WEIGHT_SUM: Real = 1000.0;
+
 /// How [`Predictor::calibrate`] fits a fabric's weights.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -162,14 +171,24 @@ impl FabricCalibration {
     }
 
     /// Checks that the calibration is usable with `predictor`: finite weights summing to
-    /// one, ω inside the unit cube, and the predictor's template and training fabrics.
+    /// one whose absolute values sum to at most [`MAX_ABSOLUTE_WEIGHT_SUM`], ω inside the
+    /// unit cube, valid settings, a non-empty name, at least one reference drape, finite
+    /// non-negative reference errors, and the predictor's template and training fabrics.
     ///
     /// # Errors
-    /// [`Error::Calibration`] naming what differs and saying to calibrate again.
+    /// [`Error::Calibration`] naming the field or what differs and saying to calibrate
+    /// again.
     pub fn check_for(&self, predictor: &Predictor) -> Result<()> {
         let mismatch = |what: String| {
             Err(Error::Calibration(format!(
                 "{what}; calibrate the fabric again with this model (`garmatnet calibrate`)"
+            )))
+        };
+        // Fields `Predictor::calibrate` never writes this way: the file was changed by hand.
+        let edited = |what: String| {
+            Err(Error::Calibration(format!(
+                "{what} (the file was probably edited); calibrate the fabric again \
+                 (`garmatnet calibrate`)"
             )))
         };
         if self.version != CALIBRATION_VERSION {
@@ -177,6 +196,28 @@ impl FabricCalibration {
                 "the calibration has version {}, this build reads version {CALIBRATION_VERSION}",
                 self.version
             ));
+        }
+        if self.name.trim().is_empty() {
+            return edited("the calibration's `name` is empty".into());
+        }
+        if let Err(e) = self.settings.validate() {
+            return edited(format!("the calibration's `settings` are invalid: {e}"));
+        }
+        if self.references == 0 {
+            return edited("the calibration's `references` is 0, so it fits no drape".into());
+        }
+        for (field, value) in [
+            ("reference_error_mm", self.reference_error_mm),
+            (
+                "calibrated_reference_error_mm",
+                self.calibrated_reference_error_mm,
+            ),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return edited(format!(
+                    "the calibration's `{field}` is {value}, not a distance (finite, >= 0 mm)"
+                ));
+            }
         }
         if self.template_hash != predictor.model().meta.template.hash {
             return mismatch(format!(
@@ -204,8 +245,16 @@ impl FabricCalibration {
         }
         let sum: Real = weights.iter().sum();
         if (sum - 1.0).abs() > 1e-6 {
-            return mismatch(format!(
-                "the calibration's weights sum to {sum}, not 1 (the file was edited?)"
+            return edited(format!(
+                "the calibration's weights (`own_weight` and `training`) sum to {sum}, not 1"
+            ));
+        }
+        let absolute: Real = weights.iter().map(|w| w.abs()).sum();
+        if absolute > MAX_ABSOLUTE_WEIGHT_SUM {
+            return edited(format!(
+                "the calibration's weights (`own_weight` and `training`) have absolute values \
+                 summing to {absolute}, above the {MAX_ABSOLUTE_WEIGHT_SUM} a fitted \
+                 calibration stays within"
             ));
         }
         validate_inputs(&Pose::zero(), &self.omega)
@@ -261,8 +310,9 @@ impl Predictor {
     ///
     /// # Errors
     /// [`Error::Calibration`] if the model file records no training fabrics (models trained
-    /// before they were recorded); [`Error::Core`] for no references, an invalid material,
-    /// pose or settings, or a drape with the wrong vertex count or a non-finite coordinate;
+    /// before they were recorded) or the fitted weights' absolute values sum to more than
+    /// [`MAX_ABSOLUTE_WEIGHT_SUM`] (raise the ridge weight); [`Error::Core`] for an empty
+    /// name, no references, an invalid material, pose or settings, or a drape with the wrong vertex count or a non-finite coordinate;
     /// [`Error::NonFiniteOutput`] if the nets produce NaN.
     pub fn calibrate(
         &self,
@@ -273,6 +323,13 @@ impl Predictor {
     ) -> Result<FabricCalibration> {
         settings.validate()?;
         material.validate()?;
+        if name.trim().is_empty() {
+            return Err(garmatnet_core::Error::InvalidArgument(
+                "a calibration needs a name (the fabric's, for people); give a non-empty one"
+                    .into(),
+            )
+            .into());
+        }
         if references.is_empty() {
             return Err(garmatnet_core::Error::InvalidArgument(
                 "a calibration needs at least one reference drape".into(),
@@ -346,6 +403,17 @@ impl Predictor {
         } else {
             DVector::zeros(columns)
         };
+        let own_weight = 1.0 - v.sum();
+        let absolute = own_weight.abs() + v.iter().map(|w| w.abs()).sum::<Real>();
+        // `check_for` would refuse such weights in every use of the calibration.
+        if !absolute.is_finite() || absolute > MAX_ABSOLUTE_WEIGHT_SUM {
+            return Err(Error::Calibration(format!(
+                "the fitted weights' absolute values sum to {absolute}, above \
+                 {MAX_ABSOLUTE_WEIGHT_SUM}: the blend cancels large multiples of nearly equal \
+                 predictions; raise the ridge weight (now {})",
+                settings.ridge
+            )));
+        }
         let mut before = 0.0;
         let mut after = 0.0;
         for (reference, predicted) in references.iter().zip(&predicted) {
@@ -375,7 +443,7 @@ impl Predictor {
             version: CALIBRATION_VERSION,
             name: name.to_owned(),
             omega,
-            own_weight: 1.0 - v.sum(),
+            own_weight,
             training,
             template_hash: self.model().meta.template.hash.clone(),
             settings: *settings,
@@ -749,8 +817,20 @@ mod tests {
             "{err}"
         );
 
+        // A drape far from every fabric's prediction (every vertex at one point) is matched
+        // only by cancelling large multiples of nearly equal predictions (absolute weights
+        // summing to 138 at the default ridge, past the bound with almost none): refused,
+        // with the fix, rather than written as a calibration every use would refuse.
+        let loose = CalibrationSettings { ridge: 1e-6 };
+        let err = p.calibrate("v", &velvet, &reference, &loose).unwrap_err();
+        assert!(matches!(err, Error::Calibration(_)), "{err:?}");
+        assert!(err.to_string().contains("raise the ridge weight"), "{err}");
+
         // A calibration from one model is refused by a model with other training fabrics,
         // and weights that no longer sum to one are refused.
+        let felt = Material::preset("Felt").unwrap().to_normalized();
+        let drape = p.predict_normalized(&pose, &felt, Detail::Full).unwrap();
+        let reference = [drape_at(&pose, drape.vertices)];
         let c = p.calibrate("v", &velvet, &reference, &settings).unwrap();
         let err = bare
             .predict_calibrated(&pose, &c, Detail::Full)
@@ -765,6 +845,80 @@ mod tests {
             .predict_calibrated(&pose, &edited, Detail::Full)
             .unwrap_err();
         assert!(err.to_string().contains("sum to"), "{err}");
+    }
+
+    #[test]
+    fn an_edited_calibration_with_absurd_weights_or_fields_is_refused() {
+        let p = predictor(None);
+        let own = Material::preset("Velvet").unwrap().to_normalized();
+        let good = with_weights(&p, own, [0.7, -0.2, 0.4, 0.0]);
+        good.check_for(&p).unwrap();
+        let refused = |edit: &dyn Fn(&mut FabricCalibration), field: &str| {
+            let mut c = good.clone();
+            edit(&mut c);
+            let err = c.check_for(&p).unwrap_err();
+            assert!(matches!(err, Error::Calibration(_)), "{field}: {err:?}");
+            let message = err.to_string();
+            assert!(message.contains(field), "{field}: {message}");
+            assert!(message.contains("probably edited"), "{field}: {message}");
+            let err = p
+                .predict_calibrated(&Pose::zero(), &c, Detail::Full)
+                .unwrap_err();
+            assert!(matches!(err, Error::Calibration(_)), "{field}: {err:?}");
+        };
+        // Still summing to one, but 1e7 times the nets' garment cancelled against another:
+        // the audit's edit put the garment 126 km away.
+        refused(
+            &|c| {
+                c.own_weight += 1e7;
+                c.training[1].weight -= 1e7;
+            },
+            "absolute values",
+        );
+        // Just past the bound, and the sum still one.
+        refused(
+            &|c| {
+                c.own_weight = 1.0 + MAX_ABSOLUTE_WEIGHT_SUM / 2.0;
+                c.training[0].weight = -MAX_ABSOLUTE_WEIGHT_SUM / 2.0;
+                for w in &mut c.training[1..] {
+                    w.weight = 0.0;
+                }
+            },
+            "absolute values",
+        );
+        refused(&|c| c.reference_error_mm = -1.0, "reference_error_mm");
+        refused(&|c| c.reference_error_mm = Real::NAN, "reference_error_mm");
+        refused(
+            &|c| c.calibrated_reference_error_mm = Real::INFINITY,
+            "calibrated_reference_error_mm",
+        );
+        refused(&|c| c.name = " ".into(), "name");
+        refused(&|c| c.settings.ridge = -0.1, "settings");
+        refused(&|c| c.references = 0, "references");
+        refused(&|c| c.own_weight += 0.5, "sum to");
+        // Large but plausible weights inside the bound are kept.
+        let mut wide = good.clone();
+        wide.own_weight = 30.0;
+        wide.training[0].weight = -29.0;
+        wide.training[1].weight = 0.0;
+        wide.training[2].weight = 0.0;
+        wide.check_for(&p).unwrap();
+        // `calibrate` refuses to make what `check_for` refuses.
+        let velvet = Material::preset("Velvet").unwrap();
+        let pose = Pose::zero();
+        let drape = p
+            .predict_normalized(&pose, &own, Detail::Full)
+            .unwrap()
+            .vertices;
+        let err = p
+            .calibrate(
+                "",
+                &velvet,
+                &[drape_at(&pose, drape)],
+                &CalibrationSettings::default(),
+            )
+            .unwrap_err();
+        assert!(err.to_string().contains("name"), "{err}");
     }
 
     #[test]

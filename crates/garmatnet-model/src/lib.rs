@@ -47,8 +47,8 @@ mod test_util;
 
 pub use baseline_net::{BaselineNet, BaselineNetConfig};
 pub use calibration::{
-    CALIBRATION_VERSION, CalibrationSettings, DEFAULT_RIDGE, FabricCalibration, ReferenceDrape,
-    WeightedFabric,
+    CALIBRATION_VERSION, CalibrationSettings, DEFAULT_RIDGE, FabricCalibration,
+    MAX_ABSOLUTE_WEIGHT_SUM, ReferenceDrape, WeightedFabric,
 };
 pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;

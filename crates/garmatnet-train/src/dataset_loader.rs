@@ -285,7 +285,7 @@ impl TrainingDataset {
                         worst.max(d)
                     }
                 });
-            if !(worst <= BODY_POINT_TOLERANCE) {
+            if worst.is_nan() || worst > BODY_POINT_TOLERANCE {
                 return Err(Error::Dataset {
                     dir: self.dir().to_owned(),
                     message: format!(

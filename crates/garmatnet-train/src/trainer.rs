@@ -328,6 +328,57 @@ pub fn split_path(model_path: &Path) -> PathBuf {
     sibling(model_path, "split.json")
 }
 
+/// The files the trainer derives from a model path `{stem}.{ext}`, as `(suffix, what)`:
+/// each is written at `{stem}.{suffix}` next to the model.
+const MODEL_SIBLINGS: [(&str, &str); 3] = [
+    ("checkpoint", "checkpoint directory"),
+    ("lock", "lock file"),
+    ("split.json", "split file"),
+];
+
+/// Checks, before any work, that the model can be written at `model_path`: it is not an
+/// existing directory, and its name does not end like one of the files the trainer derives
+/// from a model path (a model path `m.checkpoint` is its own checkpoint directory, `m.lock`
+/// its own lock file, which taking the lock truncates, and `m.split.json` the split file of
+/// a model `m.*`).
+///
+/// # Errors
+/// [`Error::InvalidConfig`] naming the path and saying what to name the model instead.
+pub(crate) fn check_model_path(model_path: &Path) -> Result<()> {
+    let directory = || {
+        Err(Error::InvalidConfig(format!(
+            "the model path `{}` is a directory, not a model file; name a file such as \
+             `{}`",
+            model_path.display(),
+            model_path.join("model.safetensors").display()
+        )))
+    };
+    let Some(file_name) = model_path.file_name().map(|n| n.to_string_lossy()) else {
+        return directory();
+    };
+    // Case-insensitive, as some file systems are.
+    let lower = file_name.to_ascii_lowercase();
+    for (suffix, what) in MODEL_SIBLINGS {
+        if let Some(stem) = lower.strip_suffix(&format!(".{suffix}")) {
+            let stem = &file_name[..stem.len()];
+            let stem = if stem.is_empty() { "model" } else { stem };
+            return Err(Error::InvalidConfig(format!(
+                "the model path `{}` ends in `.{suffix}`, the name of the {what} the trainer \
+                 writes next to a model (`{{stem}}.{suffix}`), so the run would overwrite its \
+                 own or another model's {what}; name the model `{}` instead",
+                model_path.display(),
+                model_path
+                    .with_file_name(format!("{stem}.safetensors"))
+                    .display()
+            )));
+        }
+    }
+    if model_path.is_dir() {
+        return directory();
+    }
+    Ok(())
+}
+
 /// Trains GarMatNet on the dataset in `data_dir` and writes the model to `model_path`, its
 /// split to [`split_path`] and checkpoints to `{stem}.checkpoint/` (removed at the end).
 ///
@@ -340,7 +391,10 @@ pub fn split_path(model_path: &Path) -> PathBuf {
 /// from the dataset and the configuration, which the checkpoint's fingerprint pins.
 ///
 /// # Errors
-/// [`Error::InvalidConfig`] for bad settings; dataset errors naming the sample;
+/// [`Error::InvalidConfig`] for bad settings, or a `model_path` that is a directory or named
+/// like a file derived from a model path (`{stem}.checkpoint`, `{stem}.lock`,
+/// `{stem}.split.json`);
+/// dataset errors naming the sample;
 /// [`Error::UnknownMaterials`] for absent target materials; [`Error::Checkpoint`] for a
 /// checkpoint of another configuration; [`Error::Diverged`] if the loss becomes NaN,
 /// infinite or explodes (no model is written, the last good checkpoint is kept).
@@ -351,6 +405,7 @@ pub fn train(
     options: &RunOptions,
 ) -> Result<TrainSummary> {
     config.validate()?;
+    check_model_path(model_path)?;
     let data = TrainingDataset::open(data_dir, config.allow_incomplete_dataset)?;
     let split = data.split(&config.split)?;
     let split_file = split_path(model_path);
@@ -976,5 +1031,33 @@ pub(crate) mod tests {
         drop(held);
         train(&data, &path, &tiny_config(2), &RunOptions::default()).unwrap();
         assert!(path.exists());
+    }
+
+    #[test]
+    fn a_model_path_that_is_its_own_checkpoint_or_lock_is_refused_before_training() {
+        let dir = tempfile::tempdir().unwrap();
+        // No dataset: the path is refused before the dataset is even opened.
+        let data = dir.path().join("no-data");
+        for (name, what) in [
+            ("m.checkpoint", "checkpoint directory"),
+            ("m.lock", "lock file"),
+            ("m.LOCK", "lock file"),
+            // Not its own split (that is `m.split.split.json`) but model `m`'s.
+            ("m.split.json", "split file"),
+        ] {
+            let path = dir.path().join(name);
+            let err = train(&data, &path, &tiny_config(2), &RunOptions::default()).unwrap_err();
+            assert!(matches!(err, Error::InvalidConfig(_)), "{name}: {err:?}");
+            let message = err.to_string();
+            assert!(message.contains(what), "{name}: {message}");
+            assert!(message.contains("m.safetensors"), "{name}: {message}");
+            assert!(!path.exists(), "{name}: something was written");
+        }
+        // An existing directory is no model file either.
+        let err = train(&data, dir.path(), &tiny_config(2), &RunOptions::default()).unwrap_err();
+        assert!(err.to_string().contains("is a directory"), "{err}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        check_model_path(&dir.path().join("m.safetensors")).unwrap();
+        check_model_path(Path::new("model")).unwrap();
     }
 }
