@@ -591,7 +591,7 @@ impl Predictor {
 
 /// A finite pose and a material inside the unit cube.
 pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> Result<()> {
-    ensure_finite("pose vector", pose.to_vec())?;
+    pose.validate()?;
     ensure_finite("normalised material coordinates", material.iter().copied())?;
     if let Some((i, &v)) = material
         .iter()
