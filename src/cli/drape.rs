@@ -178,21 +178,17 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     }
     // The nets learned poses within the joint limits; one beyond them is an extrapolation.
     let limits = JointLimits::default();
-    let beyond: Vec<(usize, String)> = match &sequence {
-        Some(frames) => frames
-            .iter()
-            .filter_map(|(i, p)| limits.validate(p, 1e-6).err().map(|e| (*i, e.to_string())))
-            .collect(),
-        None => limits
-            .validate(&pose, 1e-6)
-            .err()
-            .map(|e| (0, e.to_string()))
-            .into_iter()
-            .collect(),
-    };
-    if let Some((frame, first)) = beyond.first() {
+    let single = [(0, pose.clone())];
+    let frames = sequence.as_deref().unwrap_or(&single);
+    let mut beyond = frames
+        .iter()
+        .filter_map(|(i, p)| limits.validate(p, 1e-6).err().map(|e| (*i, e)));
+    if let Some((frame, first)) = beyond.next() {
         let which = match &sequence {
-            Some(_) => format!("{} of the frames, first frame {frame}: ", beyond.len()),
+            Some(_) => format!(
+                "{} of the frames, first frame {frame}: ",
+                1 + beyond.count()
+            ),
             None => String::new(),
         };
         warnln!(

@@ -1,6 +1,5 @@
 //! `garmatnet ensemble`: several trained models averaged into one model file.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -62,46 +61,16 @@ impl FileIdentity {
     }
 }
 
-/// Whether the files at `a` and `b` hold the same bytes (copies of one model). Reads them
-/// in chunks, so members of any size are compared without holding them in memory.
+/// Whether the files at `a` and `b` hold the same bytes (copies of one model). Members are
+/// loaded whole right after, so reading them whole here costs no more memory.
 fn same_bytes(a: &Path, b: &Path) -> Result<bool> {
-    let open =
-        |p: &Path| std::fs::File::open(p).with_context(|| format!("opening {}", p.display()));
-    let (mut file_a, mut file_b) = (open(a)?, open(b)?);
-    let length = |f: &std::fs::File, p: &Path| {
-        f.metadata()
+    let read = |p: &Path| std::fs::read(p).with_context(|| format!("reading {}", p.display()));
+    let length = |p: &Path| {
+        std::fs::metadata(p)
             .map(|m| m.len())
             .with_context(|| format!("reading {}", p.display()))
     };
-    if length(&file_a, a)? != length(&file_b, b)? {
-        return Ok(false);
-    }
-    const CHUNK: usize = 1 << 16;
-    let (mut chunk_a, mut chunk_b) = (vec![0u8; CHUNK], vec![0u8; CHUNK]);
-    loop {
-        let read_a = read_full(&mut file_a, &mut chunk_a)
-            .with_context(|| format!("reading {}", a.display()))?;
-        let read_b = read_full(&mut file_b, &mut chunk_b)
-            .with_context(|| format!("reading {}", b.display()))?;
-        if chunk_a[..read_a] != chunk_b[..read_b] {
-            return Ok(false);
-        }
-        if read_a < CHUNK {
-            return Ok(true);
-        }
-    }
-}
-
-/// Fills `buffer` from `file` as far as the file goes; the count read (short only at the end).
-fn read_full(file: &mut std::fs::File, buffer: &mut [u8]) -> std::io::Result<usize> {
-    let mut filled = 0;
-    while filled < buffer.len() {
-        match file.read(&mut buffer[filled..])? {
-            0 => break,
-            n => filled += n,
-        }
-    }
-    Ok(filled)
+    Ok(length(a)? == length(b)? && read(a)? == read(b)?)
 }
 
 /// Refuses, before anything is loaded or written, more than [`MAX_MEMBERS`] members, a

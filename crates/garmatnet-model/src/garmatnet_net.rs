@@ -226,7 +226,8 @@ impl GarMatNetConfig {
     /// The number of output values, 3n.
     #[must_use]
     pub fn output_dim(&self) -> usize {
-        3 * self.vertex_count
+        // Saturating, so `validate` can refuse an absurd vertex count instead of overflowing.
+        self.vertex_count.saturating_mul(3)
     }
 
     /// Checks that every size is positive, the weights at most [`MAX_PARAMETERS`], and α,
@@ -277,9 +278,11 @@ impl GarMatNetConfig {
                 self.output_dim()
             )));
         }
+        // Saturating: a size near usize::MAX must fail the count, not overflow first.
+        let outputs = self.output_dim();
         let head = match self.output_rank {
-            Some(k) => vec![(self.hidden, k), (k, self.output_dim())],
-            None => vec![(self.hidden, self.output_dim())],
+            Some(k) => vec![(self.hidden, k), (k, outputs)],
+            None => vec![(self.hidden, outputs)],
         };
         check_parameter_count(
             "the network",
@@ -287,7 +290,10 @@ impl GarMatNetConfig {
                 &[
                     (self.pose_dim, self.pose_hidden),
                     (self.material_dim, self.material_hidden),
-                    (self.pose_hidden + self.material_hidden, self.hidden),
+                    (
+                        self.pose_hidden.saturating_add(self.material_hidden),
+                        self.hidden,
+                    ),
                 ][..],
                 &head,
             ]

@@ -86,8 +86,8 @@ impl TrainingProvenance {
 
     /// The fingerprint of the split the model was trained with (`garmatnet-train`'s
     /// `Split::fingerprint`), kept in [`TrainingProvenance::extra`] so that files of every
-    /// version share one layout; `None` for models written before it was recorded (or not
-    /// trained on a split, e.g. an ensemble). Readers of the split file next to a model
+    /// version share one layout (`garmatnet ensemble` records its members'); `None` for
+    /// models written before it was recorded. Readers of the split file next to a model
     /// compare it with the file's, so a model is never evaluated on another run's split.
     #[must_use]
     pub fn split_fingerprint(&self) -> Option<&str> {

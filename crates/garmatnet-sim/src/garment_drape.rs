@@ -126,9 +126,11 @@ impl SequenceSettings {
 
 impl SequenceSettings {
     /// Checks every setting against the range a walk works in: the drape settings
-    /// ([`DrapeSettings::validate`]), an interpolation step of [`MIN_STEP_RAD`] to π radians
-    /// (a smaller one would cut a pose change into millions of steps), 1 to 10,000
-    /// intermediate iterations and a surface step of 0 (off) to 1 metre.
+    /// ([`DrapeSettings::validate`]), a finite interpolation step of at least
+    /// [`MIN_STEP_RAD`] (a smaller one would cut a pose change into millions of steps), at
+    /// least one intermediate iteration and a finite surface step of at least 0 (off). Only
+    /// lower bounds: larger values mean fewer or longer steps, which datasets made with them
+    /// must still resume with.
     /// [`drape_sequence`] and dataset generation check it before any work; call it to
     /// check settings read from a file before a long run.
     ///
@@ -141,19 +143,19 @@ impl SequenceSettings {
                 "sequence setting max_step_rad (radians)",
                 self.max_step_rad,
                 MIN_STEP_RAD,
-                std::f64::consts::PI,
+                Real::MAX,
             ),
             (
                 "sequence setting intermediate_iterations",
                 self.intermediate_iterations as Real,
                 1.0,
-                10_000.0,
+                Real::MAX,
             ),
             (
                 "sequence setting max_surface_step (metres; 0 is off)",
                 self.max_surface_step,
                 0.0,
-                1.0,
+                Real::MAX,
             ),
         ];
         for (what, value, min, max) in checks {

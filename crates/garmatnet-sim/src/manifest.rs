@@ -201,8 +201,8 @@ impl DatasetSpec {
             {
                 return Err(Error::InvalidArgument(format!(
                     "material `{}`: omega_normalized[{i}] = {} is not its omega's normalised \
-                     coordinate {} (n = (ln v - ln lo) / (ln hi - ln lo)); write both from one \
-                     Material",
+                     coordinate {} (n = (ln v - ln lo) / (ln hi - ln lo)): the manifest was edited or \
+                     written by other code; restore it, or write both from one Material",
                     m.name, m.omega_normalized[i], expected[i]
                 )));
             }

@@ -631,6 +631,8 @@ pub fn material_indices(spec: &DatasetSpec, names: &[String]) -> Result<Vec<usiz
     let mut missing = Vec::new();
     for name in names {
         match spec.materials.iter().position(|m| &m.name == name) {
+            // A name given twice holds out one fabric (a split's lists have no repeats).
+            Some(i) if out.contains(&i) => {}
             Some(i) => out.push(i),
             None => missing.push(name.clone()),
         }
@@ -734,6 +736,14 @@ mod tests {
         let rest = (5 * 36) as f64;
         assert_eq!(split.dev.len(), (rest * 0.1).round() as usize);
         assert_eq!(split.comparison_test().len(), 2 * 4);
+        // A target named twice is held out once, and the split reads back.
+        let twice = SplitConfig {
+            test_materials: vec!["M1".into(), "M4".into(), "M1".into()],
+            ..SplitConfig::default()
+        };
+        let again = Split::new(&spec, &settled(&keys), "h", &twice).unwrap();
+        assert_eq!(again.test_materials, vec![1, 4]);
+        again.check_well_formed(Path::new("s.json")).unwrap();
     }
 
     #[test]
