@@ -411,10 +411,9 @@ impl Baseline {
                 net.vertex_count, net.pose_dim
             )));
         }
-        // Rebuilt through the validating constructor, whatever path the manifest was read by.
+        // Deserialising already validated each normaliser (`OutputNormalizer::from_parts`);
+        // what it cannot know is the template's size.
         let checked_norm = |e: &BaselineMaterialEntry, part: &str, norm: &OutputNormalizer| {
-            let norm = OutputNormalizer::from_parts(norm.mean().to_vec(), norm.std().to_vec())
-                .map_err(|err| corrupt(format!("`{}` {part} normaliser: {err}", e.name)))?;
             if norm.dim() != 3 * n {
                 return Err(corrupt(format!(
                     "`{}` {part} normaliser has {} values, the template's {n} vertices need {}; \
@@ -424,7 +423,7 @@ impl Baseline {
                     3 * n
                 )));
             }
-            Ok(norm)
+            Ok(norm.clone())
         };
         let mut materials = Vec::new();
         for e in &manifest.materials {

@@ -13,17 +13,17 @@ use serde::{Deserialize, Serialize};
 
 use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::fabric_reference::{fabric_lookup, material_support};
 use crate::prediction_errors::{
-    VertexErrors, error_stats, load_model, predict_baseline, predict_garmatnet, vertex_errors,
+    VertexErrors, error_stats, load_model, load_with_same_test, predict_baseline,
+    predict_garmatnet, vertex_errors,
 };
 use crate::report::{
     ErrorStats, FrameComparison, MaterialErrors, ModelSizes, NearestTraining, PenetrationStats,
     Report, SampleErrors, TestParts, Timing,
 };
 use crate::split::Split;
-use crate::trainer::split_path;
 
 /// Evaluation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -362,21 +362,7 @@ fn compare_frames(
     primary: &GarMatNetModel,
     primary_whole_mm: f64,
 ) -> Result<FrameComparison> {
-    let other = load_model(path, data, device)?;
-    let other_split = Split::read_for_model(
-        path,
-        &other.meta.provenance,
-        data.spec(),
-        data.dataset_hash(),
-    )?;
-    if other_split.test != split.test {
-        return Err(Error::Split {
-            path: split_path(path),
-            message: "the second model was trained with another test set; train both models \
-                      with the same split settings to compare them"
-                .into(),
-        });
-    }
+    let other = load_with_same_test(path, "the second model", split, data, device)?;
     let mut errors = Vec::new();
     for keys in split.test.chunks(64) {
         for (&key, pred) in keys
@@ -473,6 +459,7 @@ mod tests {
     use super::*;
     use crate::baseline::{BaselineConfig, train_baseline};
     use crate::test_util::{synthetic_dataset, training_lock};
+    use crate::trainer::split_path;
     use crate::trainer::tests::tiny_config;
     use crate::trainer::{RunOptions, TrainConfig, train};
     use garmatnet_model::MaterialRange;

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
-use crate::prediction_errors::predict_baseline;
+use crate::prediction_errors::{load_with_same_test, predict_baseline};
 use crate::split::Split;
 use crate::trainer::split_path;
 
@@ -123,24 +123,8 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
     // Each variant must hold out the same test samples as the main model, or its error
     // could be measured on its own training data; checked before the simulator's long phase.
     for (name, path) in &inputs.variants {
-        let variant = GarMatNetModel::load(path, &select_device("cpu")?)?;
-        variant.ensure_template(data.template_hash(), data.vertex_count())?;
-        let theirs = Split::read_for_model(
-            path,
-            &variant.meta.provenance,
-            data.spec(),
-            data.dataset_hash(),
-        )?;
-        if theirs.test != split.test {
-            return Err(Error::Split {
-                path: split_path(path),
-                message: format!(
-                    "variant `{name}` was trained with another test set than the main model, \
-                     so some of the benched samples may be its training data; train it with \
-                     the same split settings"
-                ),
-            });
-        }
+        let what = format!("variant `{name}`");
+        load_with_same_test(path, &what, &split, &data, &select_device("cpu")?)?;
     }
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "benchmark")?;
     let spec = data.spec();

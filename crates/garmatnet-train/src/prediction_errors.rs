@@ -8,8 +8,10 @@ use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, Vec3, decompose}
 use garmatnet_model::{GarMatNetModel, OutputNormalizer};
 
 use crate::dataset_loader::{SampleKey, SampleTruth, TrainingDataset};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::report::{ErrorStats, PartErrors, spread_mm};
+use crate::split::Split;
+use crate::trainer::split_path;
 
 /// Per-vertex errors (metres) of one prediction.
 #[derive(Clone)]
@@ -56,6 +58,39 @@ pub(crate) fn load_model(
 ) -> Result<GarMatNetModel> {
     let model = GarMatNetModel::load(path, device)?;
     model.ensure_template(data.template_hash(), data.vertex_count())?;
+    Ok(model)
+}
+
+/// [`load_model`], for a model compared against another on `split`'s test samples: its own
+/// split (checked as [`Split::read_for_model`] does) must hold out the same samples, or it
+/// would be measured on some of its training data. `what` names it in the error.
+///
+/// # Errors
+/// As [`load_model`] and [`Split::read_for_model`]; [`Error::Split`] for another test set.
+pub(crate) fn load_with_same_test(
+    path: &Path,
+    what: &str,
+    split: &Split,
+    data: &TrainingDataset,
+    device: &Device,
+) -> Result<GarMatNetModel> {
+    let model = load_model(path, data, device)?;
+    let theirs = Split::read_for_model(
+        path,
+        &model.meta.provenance,
+        data.spec(),
+        data.dataset_hash(),
+    )?;
+    if theirs.test != split.test {
+        return Err(Error::Split {
+            path: split_path(path),
+            message: format!(
+                "{what} was trained with another test set than the model it is compared with, \
+                 so some of the compared samples may be its training data; train both with \
+                 the same split settings"
+            ),
+        });
+    }
     Ok(model)
 }
 

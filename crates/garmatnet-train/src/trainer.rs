@@ -162,21 +162,22 @@ impl TrainConfig {
     /// Whether `self` and `other` train the same model: equal in everything but `quiet` and
     /// `device` (what [`TrainConfig::fingerprint`] leaves out).
     pub(crate) fn same_run(&self, other: &TrainConfig) -> bool {
-        let normalised = |c: &TrainConfig| TrainConfig {
+        self.result_settings() == other.result_settings()
+    }
+
+    /// The configuration with what does not change the result (`quiet`, `device`) cleared.
+    fn result_settings(&self) -> TrainConfig {
+        TrainConfig {
             quiet: false,
             device: String::new(),
-            ..c.clone()
-        };
-        normalised(self) == normalised(other)
+            ..self.clone()
+        }
     }
 
     /// A fingerprint of everything that changes the result (not `quiet`/`device`).
     fn fingerprint(&self, dataset_hash: &str) -> String {
-        let mut c = self.clone();
-        c.quiet = false;
-        c.device = String::new();
         let mut h = Fnv1a::default();
-        h.write(&serde_json::to_vec(&c).unwrap_or_default());
+        h.write(&serde_json::to_vec(&self.result_settings()).unwrap_or_default());
         h.write(dataset_hash.as_bytes());
         format!("{:016x}", h.0)
     }
