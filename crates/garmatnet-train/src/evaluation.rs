@@ -73,7 +73,7 @@ pub struct EvalInputs {
 /// writes the report and figures into `inputs.out_dir`.
 ///
 /// # Errors
-/// [`Error::Split`] if the split file is missing, malformed, leaks, names samples outside the
+/// [`Error::Split`](crate::Error::Split) if the split file is missing, malformed, leaks, names samples outside the
 /// dataset, belongs to another dataset or is not the split the model was trained with;
 /// model errors for a corrupt model or another template; dataset errors naming the sample.
 pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
