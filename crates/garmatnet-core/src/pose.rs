@@ -169,7 +169,9 @@ impl Pose {
             axis_angle: std::array::from_fn(|j| {
                 let a = self.joint_rotation(j);
                 let b = other.joint_rotation(j);
-                // `try_slerp` fails only for antipodal rotations; fall back to nlerp there.
+                // `try_slerp` returns `None` only for antipodal rotations: nlerp there. Two
+                // rotations closer than about 3e-8 rad (their cosine rounds to 1) give the
+                // start rotation, under 30 nm at arm's length.
                 let q = a.try_slerp(&b, t, 1e-9).unwrap_or_else(|| a.nlerp(&b, t));
                 q.scaled_axis()
             }),

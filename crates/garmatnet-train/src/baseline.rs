@@ -457,7 +457,9 @@ impl Baseline {
 
     /// Checks that this baseline can be compared with a model on `split` of the dataset
     /// `data`: same garment template, same dataset and the same held-out poses (a baseline
-    /// trained with other held-out poses may have trained on the comparison samples).
+    /// trained with other held-out poses may have trained on the comparison samples), and a
+    /// net for every target material of the split (so both are measured on the same
+    /// samples; a split without target materials tests every fabric and cannot be compared).
     ///
     /// # Errors
     /// [`Error::Dataset`] saying what differs and how to retrain.
@@ -486,6 +488,37 @@ impl Baseline {
                 theirs.held_out_rule(),
                 data.dataset_hash(),
                 ours.held_out_rule()
+            )));
+        }
+        // Table 2 sets the baseline's error beside GarMatNet's on the same samples, so it
+        // needs a net for every fabric the split tests (else its row would be an average
+        // over fewer fabrics than GarMatNet's).
+        let names = |materials: &mut dyn Iterator<Item = usize>| {
+            materials
+                .map(|m| data.spec().materials[m].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let trained = names(&mut self.materials.iter().map(|m| m.material));
+        if split.test_materials.is_empty() {
+            return Err(mismatch(format!(
+                "the model's split holds out no target fabric (it trained on every fabric), so \
+                 every fabric is tested at the held-out poses, and the baseline has nets for \
+                 {trained} only; compare with a model trained with target materials, or leave \
+                 out the baseline"
+            )));
+        }
+        let missing: Vec<usize> = split
+            .test_materials
+            .iter()
+            .copied()
+            .filter(|m| !self.materials.iter().any(|b| b.material == *m))
+            .collect();
+        if !missing.is_empty() {
+            return Err(mismatch(format!(
+                "the baseline has no net for the model's target material(s) {} (it has {trained}); \
+                 train the baseline with the model's --test-materials",
+                names(&mut missing.iter().copied())
             )));
         }
         Ok(())

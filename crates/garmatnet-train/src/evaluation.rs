@@ -736,12 +736,26 @@ mod tests {
             .join(crate::BASELINE_MANIFEST);
         let mut json: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&manifest_path).unwrap()).unwrap();
+        let original = json.clone();
         json["config"]["split"]["held_out_block"] = 2.into();
         json["config"]["split"]["held_out_frame_every"] = 20.into();
         std::fs::write(&manifest_path, serde_json::to_vec(&json).unwrap()).unwrap();
         let err = evaluate(&inputs, &config).unwrap_err().to_string();
         assert!(
             err.contains("frames 0–1 of every 20") && err.contains("--held-out"),
+            "{err}"
+        );
+
+        // A baseline without a net for one of the targets would be averaged over fewer
+        // samples than GarMatNet's row beside it.
+        let mut json = original;
+        let dropped = json["materials"].as_array_mut().unwrap().remove(0);
+        std::fs::write(&manifest_path, serde_json::to_vec(&json).unwrap()).unwrap();
+        let err = evaluate(&inputs, &config).unwrap_err().to_string();
+        let dropped = dropped["name"].as_str().unwrap();
+        assert!(
+            err.contains(&format!("no net for the model's target material(s) {dropped} "))
+                && err.contains("--test-materials"),
             "{err}"
         );
     }
@@ -765,6 +779,26 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(err.contains("name the target materials"), "{err}");
+        // A baseline for the usual targets, on the same data and held-out poses, is refused
+        // beside this model: it tests every fabric, the baseline only its targets.
+        let baseline = dir.path().join("baseline-targets");
+        train_baseline(
+            &data,
+            &baseline,
+            &BaselineConfig::from_train_config(&tiny_config(5)),
+        )
+        .unwrap();
+        let with_baseline = EvalInputs {
+            data_dir: data.clone(),
+            model: model.clone(),
+            baseline: Some(baseline),
+            compare_model: None,
+            out_dir: dir.path().join("eval-baseline"),
+        };
+        let err = evaluate(&with_baseline, &EvalConfig::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("holds out no target fabric"), "{err}");
 
         let out = dir.path().join("eval");
         let inputs = EvalInputs {
