@@ -213,7 +213,9 @@ pub struct GenerateReport {
     /// `written`; counted in `skipped`).
     #[serde(default)]
     pub imported: usize,
-    /// Samples of this shard already on disk (skipped).
+    /// Samples of this shard already on disk and not draped again (a material's walk
+    /// resumes at its first missing pose, so finished samples after it are re-draped and
+    /// counted in `written`).
     pub skipped: usize,
     /// Samples of this shard in all.
     pub shard_samples: usize,
@@ -289,12 +291,15 @@ pub fn generate_dataset(
         .filter(|&m| config.shard.contains_material(m))
         .collect();
     let shard_samples = materials.len() * config.poses.len();
+    // A material's walk resumes at its first unfinished pose and drapes every pose after it
+    // (the walk is continuous), so finished samples past a gap are written again: only the
+    // poses before that first gap are skipped.
     let skipped: usize = materials
         .iter()
         .map(|&m| {
             (0..config.poses.len())
-                .filter(|&p| writer.is_done(m, p))
-                .count()
+                .find(|&p| !writer.is_done(m, p))
+                .unwrap_or(config.poses.len())
         })
         .sum();
     on_progress(GenerateEvent::Started {

@@ -122,6 +122,26 @@ fn killed_runs_resume_to_the_same_dataset_and_threads_do_not_matter() -> anyhow:
     let report = check(&killed)?;
     assert!(report.is_ok(), "{report}");
 
+    // A sample lost from the middle of a walk (deleted by hand): the walk is continuous, so
+    // it resumes there and drapes the finished sample after it again. That one counts as
+    // written, not also as skipped (the summary added up to 10 of 9), and the bytes stay.
+    std::fs::remove_dir_all(killed.join("samples/m000_p0001"))?;
+    let events = std::sync::Mutex::new(Vec::new());
+    let gap = generate_dataset(
+        &config(&killed, 1, Shard::new(0, 1)?),
+        &|event| events.lock().unwrap().push(event),
+        &|| false,
+    )?;
+    assert_eq!((gap.skipped, gap.written), (7, 2));
+    assert_eq!(
+        events.into_inner().unwrap().first(),
+        Some(&GenerateEvent::Started {
+            shard_samples: 9,
+            done: 7
+        })
+    );
+    assert_eq!(arrays(&killed), reference);
+
     // One more fabric, built on `whole`: its three fabrics' samples are copied (to their
     // new indices) and only the new one is draped, to the same bytes as draping all four.
     let more = |out: &Path, reuse: Vec<std::path::PathBuf>| -> anyhow::Result<GenerateConfig> {
