@@ -6,7 +6,7 @@
 //! batch 1 and 64 (and 1024 with the rank-128 head), `Detail::Full` and `Detail::Smooth`,
 //! default and paper resolutions, with the paper-sized nets (hidden 512/64/512), full-width
 //! and with a rank-128 output head; a 100-character `Scene` with mixed detail where 10 % of
-//! the characters change each frame; and 120 frames of the built-in motion in
+//! the characters change each frame (pushed out of the body, and with push-out off); and 120 frames of the built-in motion in
 //! one `predict_sequence` call (batched nets, each frame pushed out of its posed body), as
 //! `garmatnet drape --frames` predicts them. Weights are untrained: speed does not depend on
 //! their values.
@@ -17,7 +17,7 @@ use garmatnet::core::{
     CapsuleBody, Garment, JointLimits, Material, Pose, Resolution, SplitMix64, presets,
 };
 use garmatnet::model::{
-    Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, Scene, TemplateInfo,
+    Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, PushOut, Scene, TemplateInfo,
 };
 use garmatnet::sim::MotionGenerator;
 
@@ -189,35 +189,48 @@ fn bench_scene(c: &mut Criterion) {
 }
 
 fn bench_scene_on(c: &mut Criterion, device_name: &str, device: &Device) {
-    let (predictor, _) = predictor(Resolution::Default, None, device);
-    let mut scene = Scene::new();
-    let start = inputs(100);
-    for (id, (pose, material)) in start.iter().enumerate() {
-        let detail = if id % 3 == 0 {
-            Detail::Full
-        } else {
-            Detail::Smooth
-        };
-        let mut character = Character::new(pose.clone(), material.to_normalized());
-        character.detail = detail;
-        scene.insert(id as u64, character).expect("valid character");
-    }
-    scene.update(&predictor).expect("first frame");
-    let limits = JointLimits::default();
-    let mut rng = SplitMix64::new(4);
+    let (shipped, _) = predictor(Resolution::Default, None, device);
     let mut group = c.benchmark_group(group_name("scene_100_characters", device_name));
     group.throughput(Throughput::Elements(1));
-    group.bench_function("10pct_changing_per_frame", |b| {
-        b.iter(|| {
-            for _ in 0..10 {
-                let id = rng.below(100) as u64;
-                scene
-                    .set_pose(id, limits.sample(&mut rng, 1.0))
-                    .expect("known character");
-            }
-            scene.update(&predictor).expect("frame")
+    // As shipped (each recomputed character pushed out of its posed body, as `predict`
+    // does), and with push-out off, for applications that resolve contact themselves.
+    let unpushed = {
+        let (p, _) = predictor(Resolution::Default, None, device);
+        p.with_push_out(PushOut {
+            enabled: false,
+            ..PushOut::default()
         })
-    });
+        .expect("valid push-out")
+    };
+    for (name, predictor) in [
+        ("10pct_changing_per_frame", &shipped),
+        ("10pct_changing_per_frame_no_push_out", &unpushed),
+    ] {
+        let mut scene = Scene::new();
+        for (id, (pose, material)) in inputs(100).iter().enumerate() {
+            let mut character = Character::new(pose.clone(), material.to_normalized());
+            character.detail = if id % 3 == 0 {
+                Detail::Full
+            } else {
+                Detail::Smooth
+            };
+            scene.insert(id as u64, character).expect("valid character");
+        }
+        scene.update(predictor).expect("first frame");
+        let limits = JointLimits::default();
+        let mut rng = SplitMix64::new(4);
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                for _ in 0..10 {
+                    let id = rng.below(100) as u64;
+                    scene
+                        .set_pose(id, limits.sample(&mut rng, 1.0))
+                        .expect("known character");
+                }
+                scene.update(predictor).expect("frame")
+            })
+        });
+    }
     group.finish();
 }
 

@@ -151,6 +151,12 @@ pub struct FabricCalibration {
     pub training: Vec<WeightedFabric>,
     /// The garment template of the model it was fitted for (hex hash).
     pub template_hash: String,
+    /// The fingerprint of the model it was fitted for ([`Predictor::model_fingerprint`]):
+    /// the weights fit that model's own errors, so a model with other weights (another
+    /// seed, an ensemble, a retrained copy) refuses it. Absent from files written before
+    /// it was recorded; those are checked by template and training fabrics alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_fingerprint: Option<String>,
     /// The settings it was fitted with.
     pub settings: CalibrationSettings,
     /// How many reference drapes it was fitted to.
@@ -224,6 +230,16 @@ impl FabricCalibration {
                 "the calibration was fitted for garment template {}, the model predicts {}",
                 self.template_hash,
                 predictor.model().meta.template.hash
+            ));
+        }
+        if let Some(fitted) = &self.model_fingerprint
+            && fitted != predictor.model_fingerprint()
+        {
+            return mismatch(format!(
+                "the calibration was fitted for a model with other weights (fingerprint \
+                 {fitted}, this model's {}): its weights correct that model's errors, not \
+                 this one's",
+                predictor.model_fingerprint()
             ));
         }
         let fabrics = predictor.training_fabrics();
@@ -446,6 +462,7 @@ impl Predictor {
             own_weight,
             training,
             template_hash: self.model().meta.template.hash.clone(),
+            model_fingerprint: Some(self.model_fingerprint().to_owned()),
             settings: *settings,
             references: references.len(),
             reference_error_mm: before / count,
@@ -657,6 +674,7 @@ mod tests {
                 })
                 .collect(),
             template_hash: predictor.model().meta.template.hash.clone(),
+            model_fingerprint: Some(predictor.model_fingerprint().to_owned()),
             settings: CalibrationSettings::default(),
             references: 1,
             reference_error_mm: 0.0,
@@ -839,6 +857,24 @@ mod tests {
             err.to_string().contains("calibrate the fabric again"),
             "{err}"
         );
+        // The same template and training fabrics with other weights (another seed) refuse
+        // it too: the weights were fitted to the first model's errors. A file written
+        // before the fingerprint was recorded is still checked by the rest.
+        let mut other = small_model(12, None, &dev);
+        other.meta.provenance.training_fabrics = p.training_fabrics().to_vec();
+        let other = test_predictor(other, &dev);
+        assert_ne!(other.model_fingerprint(), p.model_fingerprint());
+        let err = c.check_for(&other).unwrap_err();
+        assert!(
+            err.to_string().contains("a model with other weights")
+                && err.to_string().contains("calibrate the fabric again"),
+            "{err}"
+        );
+        let mut older = c.clone();
+        older.model_fingerprint = None;
+        older.check_for(&other).unwrap();
+        let json = serde_json::to_string(&older).unwrap();
+        assert!(!json.contains("model_fingerprint"), "{json}");
         let mut edited = c.clone();
         edited.own_weight += 0.5;
         let err = p

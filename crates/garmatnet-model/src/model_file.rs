@@ -306,6 +306,31 @@ impl GarMatNetModel {
         Ok(())
     }
 
+    /// A fingerprint of everything that sets the model's predictions: both nets'
+    /// configurations and weights and their output normalisers (FNV-1a 64 in hex, as the
+    /// file's checksum, but not over the provenance, so re-saving a model or editing its
+    /// training notes keeps it). Two models trained with different seeds differ here even
+    /// when template and training fabrics agree. It reads every weight, so callers that
+    /// need it often keep it ([`crate::Predictor::model_fingerprint`]).
+    #[must_use]
+    pub fn weights_fingerprint(&self) -> String {
+        // The configurations' JSON stands for the document the file checksum covers.
+        let document = serde_json::to_string(&(self.fitting.config(), self.local.config()))
+            .unwrap_or_default();
+        let mut tensors = net_tensors("fitting", &self.fitting);
+        tensors.extend(net_tensors("local", &self.local));
+        tensors.extend(norm_tensors("fitting_norm", &self.fitting_norm));
+        tensors.extend(norm_tensors("local_norm", &self.local_norm));
+        tensors.sort_by(|a, b| a.name.cmp(&b.name));
+        let sum = checksum(
+            &document,
+            tensors
+                .iter()
+                .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
+        );
+        format!("{sum:016x}")
+    }
+
     /// Refuses a model trained for another garment template.
     ///
     /// # Errors

@@ -4,8 +4,8 @@
 //! the predicted displacement D_fitting (+ D_local at full detail), paper eq. (1). With a
 //! canonical-frame model the displacement is rotated into the world by the anchor's frame.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use burn::prelude::*;
 use garmatnet_core::{
@@ -153,6 +153,8 @@ pub struct Predictor {
     push_out: PushOut,
     body: Option<CapsuleBody>,
     id: u64,
+    /// [`GarMatNetModel::weights_fingerprint`], computed on first use.
+    fingerprint: OnceLock<String>,
 }
 
 /// The hex form of a garment's template hash, as model files and dataset manifests store it.
@@ -218,6 +220,7 @@ impl Predictor {
             push_out: PushOut::default(),
             body: None,
             id,
+            fingerprint: OnceLock::new(),
         })
     }
 
@@ -341,6 +344,20 @@ impl Predictor {
 
     pub(crate) fn id(&self) -> u64 {
         self.id
+    }
+
+    /// Gives a test predictor a body to push out of, as [`Predictor::for_garment`] does.
+    #[cfg(test)]
+    pub(crate) fn set_test_body(&mut self, body: CapsuleBody) {
+        self.body = Some(body);
+    }
+
+    /// The model's [`GarMatNetModel::weights_fingerprint`], computed once per predictor. A
+    /// [`crate::FabricCalibration`] records it and is refused by a model with other weights.
+    #[must_use]
+    pub fn model_fingerprint(&self) -> &str {
+        self.fingerprint
+            .get_or_init(|| self.model.weights_fingerprint())
     }
 
     /// Predicts the garment for `pose` and normalised material coordinates ω ∈ [0, 1]⁶.
@@ -497,13 +514,19 @@ impl Predictor {
         mut meshes: Vec<GarmentMesh>,
         poses: &[Pose],
     ) -> Vec<GarmentMesh> {
-        if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
-            for (mesh, pose) in meshes.iter_mut().zip(poses) {
-                // As in `predict`, the report is dropped: `predict_on_body` returns it.
-                let _ = push_out(&mut mesh.vertices, &body.pose(pose), self.push_out.epsilon);
-            }
+        for (mesh, pose) in meshes.iter_mut().zip(poses) {
+            self.push_out_vertices(&mut mesh.vertices, pose);
         }
         meshes
+    }
+
+    /// Pushes `vertices` (any of the garment's, in any order) out of the body posed at
+    /// `pose`, when the predictor knows the body and push-out is enabled.
+    pub(crate) fn push_out_vertices(&self, vertices: &mut [Vec3], pose: &Pose) {
+        if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
+            // As in `predict`, the report is dropped: `predict_on_body` returns it.
+            let _ = push_out(vertices, &body.pose(pose), self.push_out.epsilon);
+        }
     }
 
     /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;

@@ -4,6 +4,8 @@
 //! changed since the last update, in one batched forward pass per detail level; it reuses
 //! the material branch's activation per material and, for characters that only need some
 //! vertices (e.g. those visible or near a collider), computes only those output rows.
+//! Outputs are pushed out of the posed body as [`Predictor::predict`]'s are (when the
+//! predictor knows the body and push-out is on: [`Predictor::with_push_out`]).
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -94,10 +96,17 @@ impl Scene {
         Self::default()
     }
 
-    /// Whether [`CharacterOutput::body_points`] is filled (off by default).
+    /// Whether [`CharacterOutput::body_points`] is filled (off by default). Changing it on
+    /// a scene already updated marks every character for the next update, so no output
+    /// keeps the old setting.
     #[must_use]
     pub fn with_body_points(mut self, build: bool) -> Self {
-        self.build_body_points = build;
+        if self.build_body_points != build {
+            self.build_body_points = build;
+            for slot in self.slots.values_mut() {
+                slot.dirty = true;
+            }
+        }
         self
     }
 
@@ -301,13 +310,16 @@ impl Scene {
         for (r, c) in characters.iter().enumerate() {
             let local = displacements.get(1).map(|d| d[r].as_slice());
             let subset = c.vertices.as_deref();
-            let vertices = predictor.assemble(
+            let mut vertices = predictor.assemble(
                 &c.pose,
                 &displacements[0][r],
                 local,
                 subset,
                 &format!("character {}", ids[r]),
             )?;
+            // Each vertex is pushed out on its own, so a subset gets what the full
+            // prediction gives those vertices.
+            predictor.push_out_vertices(&mut vertices, &c.pose);
             let body_points = self.build_body_points.then(|| {
                 let all = predictor.body_points(&c.pose);
                 match subset {
@@ -472,6 +484,78 @@ mod tests {
             assert_eq!(scene.update(&p).unwrap().recomputed, vec![0, 1, 3]);
             check(&scene);
         }
+    }
+
+    #[test]
+    fn outputs_are_pushed_out_of_the_body_as_predictions_are() {
+        let mut p = predictor(None);
+        let body = garmatnet_core::CapsuleBody::smpl_neutral();
+        p.set_test_body(body.clone());
+        let mut rng = SplitMix64::new(8);
+        let limits = JointLimits::default();
+        let mut scene = Scene::new();
+        let subset = vec![5usize, 0, 33];
+        for id in 0..3u64 {
+            let mut c =
+                Character::new(limits.sample(&mut rng, 1.0), [0.3, 0.5, 0.2, 0.7, 0.6, 0.4]);
+            if id == 1 {
+                c.detail = Detail::Smooth;
+            }
+            if id == 2 {
+                c.vertices = Some(subset.clone());
+            }
+            scene.insert(id, c).unwrap();
+        }
+        scene.update(&p).unwrap();
+        let mut pushed = 0;
+        for id in 0..3u64 {
+            let c = scene.character(id).unwrap();
+            let (full, _) = p
+                .predict_on_body(&c.pose, &c.material, c.detail, &body.pose(&c.pose))
+                .unwrap();
+            let raw = p
+                .predict_normalized(&c.pose, &c.material, c.detail)
+                .unwrap();
+            let pick = |v: &[Vec3]| -> Vec<Vec3> {
+                match &c.vertices {
+                    Some(s) => s.iter().map(|&i| v[i]).collect(),
+                    None => v.to_vec(),
+                }
+            };
+            let out = &scene.output(id).unwrap().vertices;
+            assert_same(out, &pick(&full.vertices));
+            pushed += usize::from(pick(&raw.vertices) != *out);
+        }
+        assert!(
+            pushed > 0,
+            "no character had a vertex inside the body to push out"
+        );
+    }
+
+    #[test]
+    fn turning_body_points_on_refreshes_every_output() {
+        let p = predictor(None);
+        let mut scene = Scene::new();
+        for id in 0..2u64 {
+            scene
+                .insert(id, Character::new(Pose::zero(), [0.5; 6]))
+                .unwrap();
+        }
+        scene.update(&p).unwrap();
+        assert!(scene.output(0).unwrap().body_points.is_none());
+        let mut scene = scene.with_body_points(true);
+        scene.set_pose(1, Pose::zero()).unwrap();
+        assert_eq!(scene.update(&p).unwrap().recomputed, vec![0, 1]);
+        for id in 0..2u64 {
+            let out = scene.output(id).unwrap();
+            assert_eq!(
+                out.body_points.as_ref().map(Vec::len),
+                Some(out.vertices.len())
+            );
+        }
+        // Setting it to what it is marks nothing.
+        let mut scene = scene.with_body_points(true);
+        assert!(scene.update(&p).unwrap().recomputed.is_empty());
     }
 
     #[test]

@@ -754,8 +754,9 @@ mod tests {
         let err = evaluate(&inputs, &config).unwrap_err().to_string();
         let dropped = dropped["name"].as_str().unwrap();
         assert!(
-            err.contains(&format!("no net for the model's target material(s) {dropped} "))
-                && err.contains("--test-materials"),
+            err.contains(&format!(
+                "no net for the model's target material(s) {dropped} "
+            )) && err.contains("--test-materials"),
             "{err}"
         );
     }
