@@ -55,15 +55,23 @@ pub struct BenchReport {
     pub threads: usize,
 }
 
-/// Marks the rows no other row beats on both time and error.
+/// Errors closer than this (mm) are the same error on the Pareto front: one model's
+/// batch-1 and batched rows predict the same samples and differ only by f32 rounding
+/// (≈ 5e-7 mm), which must not make the slower row look more accurate. A micrometre is far
+/// below any difference the table (two decimals) or a garment can show.
+const SAME_ERROR_MM: Real = 1e-3;
+
+/// Marks the rows no other row beats on both time and error (errors within
+/// [`SAME_ERROR_MM`] counting as equal).
 pub(crate) fn mark_pareto(rows: &mut [BenchRow]) {
     let points: Vec<(Real, Real)> = rows.iter().map(|r| (r.ms_per_frame, r.error_mm)).collect();
     for (i, row) in rows.iter_mut().enumerate() {
         let (t, e) = points[i];
-        row.pareto = !points
-            .iter()
-            .enumerate()
-            .any(|(j, &(tj, ej))| j != i && tj <= t && ej <= e && (tj < t || ej < e));
+        row.pareto = !points.iter().enumerate().any(|(j, &(tj, ej))| {
+            let no_worse = ej <= e + SAME_ERROR_MM;
+            let better = ej < e - SAME_ERROR_MM;
+            j != i && tj <= t && no_worse && (tj < t || better)
+        });
     }
 }
 
@@ -181,6 +189,18 @@ mod tests {
         mark_pareto(&mut rows);
         let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
         assert_eq!(front, vec![true, true, false, true]);
+
+        // The same model's batched and batch-1 rows: the same error up to f32 rounding, so
+        // the slower one is dominated whichever way the rounding fell.
+        for rounding in [5e-7, -5e-7] {
+            let mut rows = vec![row(1.6, 14.444_086), row(1.9, 14.444_086 + rounding)];
+            mark_pareto(&mut rows);
+            assert_eq!(
+                rows.iter().map(|r| r.pareto).collect::<Vec<_>>(),
+                vec![true, false],
+                "{rounding}"
+            );
+        }
     }
 
     #[test]
