@@ -73,9 +73,16 @@ pub struct NetProgress {
 pub struct CheckpointState {
     /// [`CHECKPOINT_VERSION`].
     pub version: u32,
-    /// A fingerprint of the training configuration and dataset; a resume with another one is
-    /// refused.
+    /// A fingerprint of the training configuration (but its learning rate) and dataset; a
+    /// resume with another one is refused.
     pub fingerprint: String,
+    /// The learning rate the checkpoint was written with (a resume may lower it after a
+    /// divergence); absent from checkpoints written before it was recorded.
+    #[serde(default)]
+    pub learning_rate: Option<f64>,
+    /// Where earlier resumes of this run changed the learning rate.
+    #[serde(default)]
+    pub learning_rate_changes: Vec<crate::trainer::LearningRateChange>,
     /// The net being trained.
     pub phase: Phase,
     /// The finished fitting net's counters, once it is done.

@@ -56,11 +56,14 @@ pub enum Error {
         available: Vec<String>,
     },
 
-    /// Training diverged: the loss became NaN or infinite. No model file was written; the
-    /// last good checkpoint (if any) is kept. Lower the learning rate and resume or restart.
+    /// Training diverged: the loss became NaN or infinite, or exploded past
+    /// [`crate::DIVERGENCE_LOSS`]. No model file was written; the last good checkpoint (if
+    /// any) is kept, and `train --resume` with a lower `--lr` continues from it (a
+    /// checkpoint resumes with another learning rate; every other setting must match).
     #[error(
-        "training of the {net} net diverged at epoch {epoch}: the loss is {loss} (NaN or \
-         infinite); lower the learning rate (now {learning_rate}). No model was written{kept}"
+        "training of the {net} net diverged at epoch {epoch}: the loss is {loss} ({}). No \
+         model was written; lower the learning rate (now {learning_rate}){kept}",
+        divergence_cause(*.loss)
     )]
     Diverged {
         /// Which net (`fitting`, `local`, `baseline <material> fitting`, ...).
@@ -71,7 +74,8 @@ pub enum Error {
         loss: f64,
         /// The learning rate used.
         learning_rate: f64,
-        /// Where the last good checkpoint is, as a sentence fragment (may be empty).
+        /// How to go on, as the end of a sentence: from the last good checkpoint with
+        /// `--resume`, or training again when there is none.
         kept: String,
     },
 
@@ -128,3 +132,15 @@ impl Error {
 
 /// Shorthand for results in `garmatnet-train`.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Why a loss counts as diverged, for [`Error::Diverged`]'s message.
+fn divergence_cause(loss: f64) -> String {
+    if loss.is_finite() {
+        format!(
+            "past {:e}: exploding",
+            crate::training_loop::DIVERGENCE_LOSS
+        )
+    } else {
+        "not finite".into()
+    }
+}

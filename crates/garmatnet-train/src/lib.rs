@@ -77,5 +77,7 @@ pub use showcase::{
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};
-pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train};
+pub use trainer::{
+    LearningRateChange, NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train,
+};
 pub use training_loop::{COSINE_FINAL_FRACTION, DIVERGENCE_LOSS, LearningRateSchedule, STD_FLOOR};

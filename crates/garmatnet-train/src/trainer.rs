@@ -174,10 +174,26 @@ impl TrainConfig {
         }
     }
 
-    /// A fingerprint of everything that changes the result (not `quiet`/`device`).
+    /// A fingerprint of everything that changes the result (not `quiet`/`device`): what
+    /// checkpoints written before [`TrainConfig::resume_fingerprint`] record.
     fn fingerprint(&self, dataset_hash: &str) -> String {
+        Self::fingerprint_of(&self.result_settings(), dataset_hash)
+    }
+
+    /// The checkpoint's fingerprint: everything that changes the result but the learning
+    /// rate, so that a run that diverged resumes from its last good checkpoint with a lower
+    /// rate ([`Error::Diverged`]'s advice); every other setting must match.
+    fn resume_fingerprint(&self, dataset_hash: &str) -> String {
+        let settings = TrainConfig {
+            learning_rate: 0.0,
+            ..self.result_settings()
+        };
+        Self::fingerprint_of(&settings, dataset_hash)
+    }
+
+    fn fingerprint_of(settings: &TrainConfig, dataset_hash: &str) -> String {
         let mut h = Fnv1a::default();
-        h.write(&serde_json::to_vec(&self.result_settings()).unwrap_or_default());
+        h.write(&serde_json::to_vec(settings).unwrap_or_default());
         h.write(dataset_hash.as_bytes());
         format!("{:016x}", h.0)
     }
@@ -225,6 +241,20 @@ impl From<&NetProgress> for NetSummary {
     }
 }
 
+/// A resume that went on with another learning rate than its checkpoint was written with
+/// (after a divergence, [`Error::Diverged`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LearningRateChange {
+    /// The net that was training (`fitting` or `local`).
+    pub net: String,
+    /// The epochs of that net done at the old rate.
+    pub epoch: usize,
+    /// The rate the checkpoint was written with.
+    pub from: f64,
+    /// The rate training went on with.
+    pub to: f64,
+}
+
 /// What [`train`] did.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainSummary {
@@ -238,6 +268,10 @@ pub struct TrainSummary {
     pub checkpoint_dir: PathBuf,
     /// Where a resumed run started: the phase and the epochs it had completed.
     pub resumed_from: Option<(Phase, usize)>,
+    /// Where resumes changed the learning rate, in order (also recorded in the model's
+    /// provenance, `extra.learning_rate_changes`); empty for a run at one rate.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub learning_rate_changes: Vec<LearningRateChange>,
     /// The generally-fitting net, once finished.
     pub fitting: Option<NetSummary>,
     /// The locally-detailed net, once finished.
@@ -430,23 +464,42 @@ pub fn train(
         &format!("model {}", model_path.display()),
     )?;
     let checkpoint = CheckpointDir::for_model(model_path);
-    let fingerprint = config.fingerprint(data.dataset_hash());
+    let fingerprint = config.resume_fingerprint(data.dataset_hash());
     let saved = if options.resume {
         checkpoint.read_state()?
     } else {
         checkpoint.remove();
         None
     };
+    // Checkpoints written before the learning rate could change on resume carry the
+    // fingerprint with it, and resume with that same rate.
     if let Some(s) = &saved
         && s.fingerprint != fingerprint
+        && s.fingerprint != config.fingerprint(data.dataset_hash())
     {
         return Err(Error::Checkpoint {
             path: checkpoint.path().to_owned(),
-            message: "it was written with another configuration or dataset; delete it or \
-                      train with the original settings"
+            message: "it was written with another configuration or dataset (only the \
+                      learning rate may change on resume); delete it or train with the \
+                      original settings"
                 .into(),
         });
     }
+    // Every change of the learning rate over the run's resumes, this one's last.
+    let mut learning_rate_changes = saved
+        .as_ref()
+        .map(|s| s.learning_rate_changes.clone())
+        .unwrap_or_default();
+    learning_rate_changes.extend(saved.as_ref().and_then(|s| {
+        s.learning_rate
+            .filter(|&before| before != config.learning_rate)
+            .map(|before| LearningRateChange {
+                net: s.phase.name().to_owned(),
+                epoch: s.progress.epoch,
+                from: before,
+                to: config.learning_rate,
+            })
+    }));
 
     let progress = epoch_progress(config.max_epochs, config.quiet);
     let ad = device.clone().autodiff();
@@ -457,6 +510,7 @@ pub fn train(
         split_path: split_file.clone(),
         checkpoint_dir: checkpoint.path().to_owned(),
         resumed_from: saved.as_ref().map(|s| (s.phase, s.progress.epoch)),
+        learning_rate_changes: learning_rate_changes.clone(),
         fitting: None,
         local: None,
         samples: [split.train.len(), split.dev.len(), split.test.len()],
@@ -479,6 +533,8 @@ pub fn train(
         CheckpointState {
             version: CHECKPOINT_VERSION,
             fingerprint: fingerprint.clone(),
+            learning_rate: Some(config.learning_rate),
+            learning_rate_changes: learning_rate_changes.clone(),
             phase: Phase::Fitting,
             fitting_done: None,
             progress: initial_progress(0),
@@ -578,6 +634,7 @@ pub fn train(
             "train_config": config,
             "fitting": NetSummary::from(&fitting_progress),
             "local": NetSummary::from(&local_progress),
+            "learning_rate_changes": learning_rate_changes,
         }),
     };
     let model = GarMatNetModel {
@@ -602,9 +659,18 @@ pub fn train(
 }
 
 impl CheckpointState {
-    /// `saved` when there is one (a resume), else `self` (a fresh start).
+    /// `saved` when there is one (a resume), else `self` (a fresh start); a resume's
+    /// checkpoints record this run's fingerprint and learning rate from then on.
     fn merge(self, saved: Option<CheckpointState>) -> Self {
-        saved.unwrap_or(self)
+        match saved {
+            Some(saved) => CheckpointState {
+                fingerprint: self.fingerprint,
+                learning_rate: self.learning_rate,
+                learning_rate_changes: self.learning_rate_changes,
+                ..saved
+            },
+            None => self,
+        }
     }
 }
 
@@ -1006,6 +1072,88 @@ pub(crate) mod tests {
         };
         let err = train(&data, &path, &other, &stop).unwrap_err();
         assert!(matches!(err, Error::Checkpoint { .. }), "{err}");
+        assert!(err.to_string().contains("only the learning rate"), "{err}");
+    }
+
+    #[test]
+    fn a_run_resumes_with_a_lower_learning_rate_and_records_where() {
+        // Error::Diverged's advice: the last good checkpoint goes on at a lower rate.
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let path = dir.path().join("model.safetensors");
+        let stop_after = |epochs| RunOptions {
+            resume: true,
+            stop_after_epochs: Some(epochs),
+            ..RunOptions::default()
+        };
+        let first = train(&data, &path, &tiny_config(5), &stop_after(2)).unwrap();
+        assert!(first.learning_rate_changes.is_empty());
+        let lower = TrainConfig {
+            learning_rate: 1e-3,
+            ..tiny_config(5)
+        };
+        // Killed again after the change, then finished at the lower rate: the change made
+        // by the first resume is still recorded, once.
+        let second = train(&data, &path, &lower, &stop_after(1)).unwrap();
+        let change = LearningRateChange {
+            net: "fitting".into(),
+            epoch: 2,
+            from: 3e-3,
+            to: 1e-3,
+        };
+        assert_eq!(second.learning_rate_changes, vec![change.clone()]);
+        let done = train(&data, &path, &lower, &stop_after(100)).unwrap();
+        assert!(done.finished);
+        assert_eq!(done.learning_rate_changes, vec![change]);
+        let model = GarMatNetModel::load(&path, &Device::flex()).unwrap();
+        let recorded = &model.meta.provenance.extra["learning_rate_changes"];
+        assert_eq!(recorded[0]["from"], 3e-3, "{recorded}");
+        assert_eq!(recorded[0]["to"], 1e-3, "{recorded}");
+        assert_eq!(recorded.as_array().map(Vec::len), Some(1), "{recorded}");
+
+        // A checkpoint written before the rate could change (its fingerprint covers the
+        // rate, it records none) resumes at its own rate and no other.
+        let old = dir.path().join("old.safetensors");
+        train(&data, &old, &tiny_config(5), &stop_after(1)).unwrap();
+        let state_file = CheckpointDir::for_model(&old).path().join("state.json");
+        let mut state: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&state_file).unwrap()).unwrap();
+        let hash = crate::dataset_loader::TrainingDataset::open(&data, false)
+            .unwrap()
+            .dataset_hash()
+            .to_owned();
+        state["fingerprint"] = tiny_config(5).fingerprint(&hash).into();
+        let state = state.as_object_mut().unwrap();
+        state.remove("learning_rate");
+        state.remove("learning_rate_changes");
+        std::fs::write(&state_file, serde_json::to_vec(&state).unwrap()).unwrap();
+        let err = train(&data, &old, &lower, &stop_after(1)).unwrap_err();
+        assert!(matches!(err, Error::Checkpoint { .. }), "{err}");
+        let resumed = train(&data, &old, &tiny_config(5), &stop_after(1)).unwrap();
+        assert_eq!(resumed.resumed_from, Some((Phase::Fitting, 1)));
+    }
+
+    #[test]
+    fn a_divergence_says_why_and_how_to_go_on() {
+        let diverged = |loss: f64, kept: &str| {
+            Error::Diverged {
+                net: "fitting".into(),
+                epoch: 3,
+                loss,
+                learning_rate: 0.01,
+                kept: kept.into(),
+            }
+            .to_string()
+        };
+        assert!(diverged(f64::NAN, " and train again").contains("(not finite)"));
+        let exploding = diverged(2e8, " and train again");
+        assert!(exploding.contains("past 1e6: exploding"), "{exploding}");
+        assert!(
+            exploding.ends_with("(now 0.01) and train again"),
+            "{exploding}"
+        );
     }
 
     #[test]

@@ -435,11 +435,12 @@ fn diverged(
 ) -> Error {
     let kept = match checkpoint {
         Some((dir, s)) if s.progress.epoch > 0 => format!(
-            "; the last good checkpoint (epoch {}) is kept in {}",
+            " and continue from the last good checkpoint (epoch {} of this net, kept in {}) \
+             with `--resume --lr <lower rate>`",
             s.progress.epoch,
             dir.path().display()
         ),
-        _ => String::new(),
+        _ => " and train again".into(),
     };
     Error::Diverged {
         net: settings.name.clone(),
