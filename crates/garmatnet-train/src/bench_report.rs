@@ -23,7 +23,8 @@ pub struct BenchRow {
     pub device: String,
     /// Frames per call.
     pub batch: usize,
-    /// Wall-clock milliseconds per frame (median for batch 1).
+    /// Wall-clock milliseconds per frame: the median over repeats for the networks' batch-1
+    /// rows; the mean over the measured samples (each timed once) for the simulator's.
     pub ms_per_frame: Real,
     /// Mean per-vertex Euclidean error against the ground truth (mm).
     pub error_mm: Real,
