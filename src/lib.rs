@@ -11,8 +11,8 @@
 //! let device = garmatnet::select_device("cpu")?; // or "gpu" with --features wgpu
 //! let body = CapsuleBody::smpl_neutral();
 //! let shirt = Garment::tshirt(Resolution::Default, &body)?;
-//! let model = GarMatNetModel::load("model.safetensors", &device)?; // refuses other templates
-//! let predictor = Predictor::for_garment(model, &shirt, body, &device)?;
+//! let model = GarMatNetModel::load("model.safetensors", &device)?; // checks format, checksum, shapes
+//! let predictor = Predictor::for_garment(model, &shirt, body, &device)?; // refuses other templates
 //! let pose = Pose::from_slice(&[0.0; 72])?; // SMPL axis-angle, root first
 //! let mesh = predictor.predict(&pose, &Material::preset("denim heavy")?, Detail::Full)?;
 //! garmatnet::core::write_obj("shirt.obj", &mesh.into_tri_mesh()?)?;
