@@ -274,13 +274,16 @@ impl Predictor {
         self.body.as_ref()
     }
 
-    /// Sets the body push-out used by [`Predictor::predict_on_body`].
+    /// Sets the body push-out of [`Predictor::predict`], the sequences, [`crate::Scene`]
+    /// and [`Predictor::predict_on_body`]. The result counts as a new predictor: a scene
+    /// updated with it recomputes every character, so none keeps the old setting's output.
     ///
     /// # Errors
     /// [`Error::Core`] for a clearance outside [`PushOut::validate`]'s range.
     pub fn with_push_out(mut self, push_out: PushOut) -> Result<Self> {
         push_out.validate()?;
         self.push_out = push_out;
+        self.id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
         Ok(self)
     }
 

@@ -530,6 +530,26 @@ mod tests {
             pushed > 0,
             "no character had a vertex inside the body to push out"
         );
+
+        // Push-out turned off: every character is recomputed, none keeps a pushed output.
+        let off = p
+            .with_push_out(crate::PushOut {
+                enabled: false,
+                ..crate::PushOut::default()
+            })
+            .unwrap();
+        assert_eq!(scene.update(&off).unwrap().recomputed, vec![0, 1, 2]);
+        for id in 0..3u64 {
+            let c = scene.character(id).unwrap();
+            let raw = off
+                .predict_normalized(&c.pose, &c.material, c.detail)
+                .unwrap();
+            let expected: Vec<Vec3> = match &c.vertices {
+                Some(s) => s.iter().map(|&i| raw.vertices[i]).collect(),
+                None => raw.vertices.clone(),
+            };
+            assert_same(&scene.output(id).unwrap().vertices, &expected);
+        }
     }
 
     #[test]
