@@ -548,5 +548,28 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     .to_string();
     assert!(leaky.contains("another test set"), "{leaky}");
     assert!(!dir.join("bench-leaky").exists());
+    // Nor is a baseline compared with a model that tests fabrics it has no net for; it is
+    // refused before the simulator runs or anything is written.
+    let uncovered = garmatnet(
+        &[
+            "bench",
+            "--data",
+            "data",
+            "--model",
+            "every-fabric.safetensors",
+            "--baseline",
+            "baseline",
+            "--out",
+            "bench-uncovered",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        uncovered.contains("holds out no target fabric"),
+        "{uncovered}"
+    );
+    assert!(!dir.join("bench-uncovered").exists());
     Ok(())
 }

@@ -86,6 +86,15 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         data.spec(),
         data.dataset_hash(),
     )?;
+    // The baseline is checked before anything is computed or written.
+    let baseline = match &inputs.baseline {
+        Some(dir) => {
+            let baseline = Baseline::load(dir, &device)?;
+            baseline.check_compatible(&data, &split)?;
+            Some(baseline)
+        }
+        None => None,
+    };
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "report")?;
     let spec = data.spec();
     let comparison = split.comparison_test();
@@ -181,13 +190,8 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let fabric_lookup = fabric_lookup(&data, &split, &comparison)?;
 
     // The baseline on the comparison set.
-    let baseline = match &inputs.baseline {
-        Some(dir) => Some(Baseline::load(dir, &device)?),
-        None => None,
-    };
     let mut baseline_errors: Vec<(SampleKey, VertexErrors)> = Vec::new();
     if let Some(b) = &baseline {
-        b.check_compatible(&data, &split)?;
         for m in &b.materials {
             let keys: Vec<SampleKey> = comparison
                 .iter()
@@ -751,7 +755,15 @@ mod tests {
         let mut json = original;
         let dropped = json["materials"].as_array_mut().unwrap().remove(0);
         std::fs::write(&manifest_path, serde_json::to_vec(&json).unwrap()).unwrap();
-        let err = evaluate(&inputs, &config).unwrap_err().to_string();
+        let refused = EvalInputs {
+            out_dir: out.with_file_name("refused"),
+            ..inputs.clone()
+        };
+        let err = evaluate(&refused, &config).unwrap_err().to_string();
+        assert!(
+            !refused.out_dir.exists(),
+            "refused before anything is written"
+        );
         let dropped = dropped["name"].as_str().unwrap();
         assert!(
             err.contains(&format!(

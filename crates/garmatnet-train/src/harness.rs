@@ -126,6 +126,15 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
         let what = format!("variant `{name}`");
         load_with_same_test(path, &what, &split, &data, &select_device("cpu")?)?;
     }
+    // So must the baseline cover the main model's target materials.
+    let baseline = match &inputs.baseline {
+        Some(dir) => {
+            let baseline = Baseline::load(dir, &select_device("cpu")?)?;
+            baseline.check_compatible(&data, &split)?;
+            Some(baseline)
+        }
+        None => None,
+    };
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "benchmark")?;
     let spec = data.spec();
     let mut cases = Vec::with_capacity(keys.len());
@@ -195,8 +204,8 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
         }
     }
 
-    if let Some(dir) = &inputs.baseline {
-        match bench_baseline(dir, &data, &split, &cases, config)? {
+    if let (Some(dir), Some(baseline)) = (&inputs.baseline, &baseline) {
+        match bench_baseline(dir, baseline, &data, &cases, config)? {
             Ok(row) => rows.push(row),
             Err(why) => skipped.push(why),
         }
@@ -514,14 +523,12 @@ fn bench_network(
 /// The baseline's batch-1 row, or why it could not be measured.
 fn bench_baseline(
     dir: &Path,
+    baseline: &Baseline,
     data: &TrainingDataset,
-    split: &Split,
     cases: &[Case],
     config: &BenchConfig,
 ) -> Result<std::result::Result<BenchRow, String>> {
     let device = select_device("cpu")?;
-    let baseline = Baseline::load(dir, &device)?;
-    baseline.check_compatible(data, split)?;
     let epsilon = PushOut::default().epsilon;
     let (mut times, mut err, mut count) = (Vec::new(), 0.0, 0);
     for case in cases {
