@@ -206,7 +206,8 @@ pub struct TrainArgs {
     /// The model file to write (`.safetensors`); its split file is written next to it.
     #[arg(long)]
     pub out: PathBuf,
-    /// Continue from the checkpoint next to `--out` after an interrupted run.
+    /// Continue from the checkpoint next to `--out` after an interrupted run, with the same
+    /// settings; after a divergence, with a lower `--lr` (the change is recorded).
     #[arg(long)]
     pub resume: bool,
 }
@@ -241,6 +242,8 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         resume: args.resume,
         stop_after_epochs: None,
+        // The way on after a divergence: `--resume` with a lower `--lr`.
+        learning_rate_may_fall: args.resume,
     };
     let summary = train(&args.options.data, &args.out, &config, &options)?;
     outln!("{}", serde_json::to_string_pretty(&summary)?)?;

@@ -192,12 +192,14 @@ pub struct SampleDone {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum GenerateEvent {
     /// Once, before anything is draped: the samples of this shard in all, and how many of
-    /// them are already on disk (finished by an earlier run, or just copied from
-    /// [`GenerateConfig::reuse`]), so progress can start where the dataset stands.
+    /// them will not be draped (finished by an earlier run, or just copied from
+    /// [`GenerateConfig::reuse`], before each material's first missing pose), so progress
+    /// can start where the dataset stands.
     Started {
         /// Samples of this shard in all.
         shard_samples: usize,
-        /// Samples of this shard already on disk.
+        /// Samples of this shard on disk that this run does not drape again
+        /// ([`GenerateReport::skipped`]).
         done: usize,
     },
     /// A sample was draped and written.
@@ -210,7 +212,8 @@ pub struct GenerateReport {
     /// Samples this run wrote.
     pub written: usize,
     /// Samples copied from the datasets in [`GenerateConfig::reuse`] (not counted in
-    /// `written`; counted in `skipped`).
+    /// `written`; counted in `skipped` unless they lie after a gap in their material's walk,
+    /// where the walk drapes them again).
     #[serde(default)]
     pub imported: usize,
     /// Samples of this shard already on disk and not draped again (a material's walk

@@ -23,8 +23,10 @@ pub struct BenchRow {
     pub device: String,
     /// Frames per call.
     pub batch: usize,
-    /// Wall-clock milliseconds per frame: the median over repeats for the networks' batch-1
-    /// rows; the mean over the measured samples (each timed once) for the simulator's.
+    /// Wall-clock milliseconds per frame, push-out included: for batch-1 rows (networks,
+    /// polished predictions, the baseline) the median over the timed calls; for batched
+    /// rows one timed pass over every batch divided by its frames; for the simulator's rows
+    /// the mean over the measured samples, each timed once.
     pub ms_per_frame: Real,
     /// Mean per-vertex Euclidean error against the ground truth (mm).
     pub error_mm: Real,

@@ -209,6 +209,10 @@ pub struct RunOptions {
     /// Stop after this many epochs (both nets together) in this run, leaving a checkpoint to
     /// resume from (time-boxed runs); `None` trains to the end.
     pub stop_after_epochs: Option<usize>,
+    /// Whether a resume may go on at a lower learning rate than its checkpoint was written
+    /// with: the way on after [`Error::Diverged`] (`train --resume` allows it). Without it,
+    /// and for a higher rate, a checkpoint of another rate is refused.
+    pub learning_rate_may_fall: bool,
 }
 
 /// How one net's training went.
@@ -245,7 +249,8 @@ impl From<&NetProgress> for NetSummary {
 /// (after a divergence, [`Error::Diverged`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LearningRateChange {
-    /// The net that was training (`fitting` or `local`).
+    /// The net that was training (`fitting` or `local`; `fitting` at its last epoch when
+    /// the change came at the hand-over to the local net).
     pub net: String,
     /// The epochs of that net done at the old rate.
     pub epoch: usize,
@@ -483,6 +488,24 @@ pub fn train(
                       learning rate may change on resume); delete it or train with the \
                       original settings"
                 .into(),
+        });
+    }
+    if let Some(before) = saved.as_ref().and_then(|s| s.learning_rate)
+        && before != config.learning_rate
+        && !(options.learning_rate_may_fall && config.learning_rate < before)
+    {
+        return Err(Error::Checkpoint {
+            path: checkpoint.path().to_owned(),
+            message: format!(
+                "it was written at learning rate {before}, and this run asks for {}; resume \
+                 at that rate{}",
+                config.learning_rate,
+                if options.learning_rate_may_fall {
+                    " or a lower one"
+                } else {
+                    ""
+                }
+            ),
         });
     }
     // Every change of the learning rate over the run's resumes, this one's last.
@@ -1086,6 +1109,7 @@ pub(crate) mod tests {
         let stop_after = |epochs| RunOptions {
             resume: true,
             stop_after_epochs: Some(epochs),
+            learning_rate_may_fall: true,
             ..RunOptions::default()
         };
         let first = train(&data, &path, &tiny_config(5), &stop_after(2)).unwrap();
@@ -1094,6 +1118,19 @@ pub(crate) mod tests {
             learning_rate: 1e-3,
             ..tiny_config(5)
         };
+        // Only when asked for (sweep-alpha, say, resumes on its own), and only lower.
+        let unasked = RunOptions {
+            learning_rate_may_fall: false,
+            ..stop_after(1)
+        };
+        let err = train(&data, &path, &lower, &unasked).unwrap_err();
+        assert!(err.to_string().ends_with("resume at that rate"), "{err}");
+        let higher = TrainConfig {
+            learning_rate: 1e-2,
+            ..tiny_config(5)
+        };
+        let err = train(&data, &path, &higher, &stop_after(1)).unwrap_err();
+        assert!(err.to_string().contains("or a lower one"), "{err}");
         // Killed again after the change, then finished at the lower rate: the change made
         // by the first resume is still recorded, once.
         let second = train(&data, &path, &lower, &stop_after(1)).unwrap();

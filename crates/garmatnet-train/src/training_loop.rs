@@ -440,6 +440,12 @@ fn diverged(
             s.progress.epoch,
             dir.path().display()
         ),
+        // The local net's first epoch: the finished fitting net is what is kept.
+        Some((dir, s)) if s.fitting_done.is_some() => format!(
+            " and continue with `--resume --lr <lower rate>`: the finished fitting net is \
+             kept in {} (training again without `--resume` would discard it)",
+            dir.path().display()
+        ),
         _ => " and train again".into(),
     };
     Error::Diverged {
@@ -455,6 +461,50 @@ fn diverged(
 mod tests {
     use super::*;
     use crate::trainer::TrainConfig;
+
+    #[test]
+    fn a_divergence_names_what_is_kept_and_how_to_go_on() {
+        let settings = LoopSettings {
+            name: "local".into(),
+            learning_rate: 1e4,
+            schedule: LearningRateSchedule::Constant,
+            batch_size: 4,
+            max_epochs: 3,
+            patience: 1,
+            weight_decay: 0.0,
+            replicate: 1,
+            seed: 1,
+        };
+        let dir = CheckpointDir::for_model(std::path::Path::new("/tmp/m.safetensors"));
+        let mut state = CheckpointState {
+            version: crate::checkpoint::CHECKPOINT_VERSION,
+            fingerprint: String::new(),
+            learning_rate: Some(1e4),
+            learning_rate_changes: Vec::new(),
+            phase: crate::checkpoint::Phase::Local,
+            fitting_done: Some(initial_progress(0)),
+            progress: initial_progress(0),
+            current_file: String::new(),
+            best_file: String::new(),
+            optimizer_file: String::new(),
+        };
+        // The local net diverging in its first epoch: the fitting net is what is kept, and
+        // training again without --resume would throw it away.
+        let first = diverged(&settings, 1, f64::NAN, Some(&(&dir, &mut state))).to_string();
+        assert!(
+            first.contains("--resume --lr <lower rate>`: the finished fitting net is kept"),
+            "{first}"
+        );
+        state.progress.epoch = 4;
+        let later = diverged(&settings, 5, 3e6, Some(&(&dir, &mut state))).to_string();
+        assert!(
+            later.contains("last good checkpoint (epoch 4 of this net"),
+            "{later}"
+        );
+        assert!(later.contains("past 1e6: exploding"), "{later}");
+        let none = diverged(&settings, 1, f64::INFINITY, None).to_string();
+        assert!(none.ends_with("and train again"), "{none}");
+    }
 
     #[test]
     fn the_cosine_schedule_falls_from_the_rate_to_its_final_fraction_and_stays() {
