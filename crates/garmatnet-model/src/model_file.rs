@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::garmatnet_net::{GarMatNet, GarMatNetConfig};
 use crate::material_range::{MaterialRange, TrainingFabric};
 use crate::model_tensors::{
-    TensorSource, checksum, net_from_tensors, net_tensors, norm_tensors, write_atomic,
+    Stored, TensorSource, checksum, net_from_tensors, net_tensors, norm_tensors, write_atomic,
 };
 use crate::output_normalizer::OutputNormalizer;
 
@@ -317,18 +317,20 @@ impl GarMatNetModel {
         // The configurations' JSON stands for the document the file checksum covers.
         let document = serde_json::to_string(&(self.fitting.config(), self.local.config()))
             .unwrap_or_default();
+        format!(
+            "{:016x}",
+            stored_checksum(&document, &self.stored_tensors())
+        )
+    }
+
+    /// Every tensor a model file stores (both nets' weights, both normalisers), by name.
+    fn stored_tensors(&self) -> Vec<Stored> {
         let mut tensors = net_tensors("fitting", &self.fitting);
         tensors.extend(net_tensors("local", &self.local));
         tensors.extend(norm_tensors("fitting_norm", &self.fitting_norm));
         tensors.extend(norm_tensors("local_norm", &self.local_norm));
         tensors.sort_by(|a, b| a.name.cmp(&b.name));
-        let sum = checksum(
-            &document,
-            tensors
-                .iter()
-                .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
-        );
-        format!("{sum:016x}")
+        tensors
     }
 
     /// Refuses a model trained for another garment template.
@@ -369,17 +371,8 @@ impl GarMatNetModel {
         };
         let document = serde_json::to_string(&header)
             .map_err(|e| Error::InvalidConfig(format!("cannot serialise the model header: {e}")))?;
-        let mut tensors = net_tensors("fitting", &self.fitting);
-        tensors.extend(net_tensors("local", &self.local));
-        tensors.extend(norm_tensors("fitting_norm", &self.fitting_norm));
-        tensors.extend(norm_tensors("local_norm", &self.local_norm));
-        tensors.sort_by(|a, b| a.name.cmp(&b.name));
-        let checksum = checksum(
-            &document,
-            tensors
-                .iter()
-                .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
-        );
+        let tensors = self.stored_tensors();
+        let checksum = stored_checksum(&document, &tensors);
         let metadata = HashMap::from([
             ("format".to_owned(), FORMAT_NAME.to_owned()),
             ("garmatnet".to_owned(), document),
@@ -504,6 +497,16 @@ impl GarMatNetModel {
         model.validate().map_err(|e| corrupt(e.to_string()))?;
         Ok(model)
     }
+}
+
+/// The file checksum of `document` and `tensors` (FNV-1a 64 over both).
+fn stored_checksum(document: &str, tensors: &[Stored]) -> u64 {
+    checksum(
+        document,
+        tensors
+            .iter()
+            .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
+    )
 }
 
 #[cfg(test)]
