@@ -378,6 +378,23 @@ pub fn train_baseline(
 }
 
 impl Baseline {
+    /// Loads a baseline directory and checks it against a model's `split` of `data`
+    /// ([`Baseline::load`], then [`Baseline::check_compatible`]): what `eval` and `bench`
+    /// do before computing or writing anything.
+    ///
+    /// # Errors
+    /// As the two.
+    pub fn load_for(
+        dir: &Path,
+        device: &Device,
+        data: &TrainingDataset,
+        split: &Split,
+    ) -> Result<Self> {
+        let baseline = Self::load(dir, device)?;
+        baseline.check_compatible(data, split)?;
+        Ok(baseline)
+    }
+
     /// Loads a baseline directory written by [`train_baseline`].
     ///
     /// # Errors

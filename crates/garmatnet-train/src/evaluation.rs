@@ -88,11 +88,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     )?;
     // The baseline is checked before anything is computed or written.
     let baseline = match &inputs.baseline {
-        Some(dir) => {
-            let baseline = Baseline::load(dir, &device)?;
-            baseline.check_compatible(&data, &split)?;
-            Some(baseline)
-        }
+        Some(dir) => Some(Baseline::load_for(dir, &device, &data, &split)?),
         None => None,
     };
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "report")?;
