@@ -128,7 +128,12 @@ pub fn run_bench(inputs: &BenchInputs, config: &BenchConfig) -> Result<BenchRepo
     }
     // So must the baseline cover the main model's target materials.
     let baseline = match &inputs.baseline {
-        Some(dir) => Some(Baseline::load_for(dir, &select_device("cpu")?, &data, &split)?),
+        Some(dir) => Some(Baseline::load_for(
+            dir,
+            &select_device("cpu")?,
+            &data,
+            &split,
+        )?),
         None => None,
     };
     let _lock = crate::dataset_loader::create_locked_dir(&inputs.out_dir, "benchmark")?;
