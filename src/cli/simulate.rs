@@ -10,7 +10,7 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, GenerateEvent, Manifest, MotionGenerator,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, canonical_settings, GenerateConfig, GenerateEvent, Manifest, MotionGenerator,
     MotionPace, SequenceSettings, Shard, generate_dataset, manifest_path,
 };
 use garmatnet::train::Progress;
@@ -54,6 +54,12 @@ pub struct SimulateArgs {
     /// before it existed (resume those with `--arm-clearance 0`).
     #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
     pub arm_clearance: f64,
+    /// How each sample is draped: `canonical` (default; ground-truth revision 3: each sample
+    /// on its own, from the fabric's rest drape along one path from the rest pose, so a drape
+    /// depends on its pose and fabric alone) or `walk` (each pose from the previous one of
+    /// the sequence, as in revisions 1 and 2; for animations).
+    #[arg(long, default_value = "canonical")]
+    pub protocol: DrapeProtocol,
     /// Template resolution: coarse, default or paper.
     #[arg(long, default_value = "default")]
     pub resolution: Resolution,
@@ -301,7 +307,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                         format!("the solver settings of the dataset in {}", dir.display())
                     })?
                 }
-                None => SequenceSettings::default(),
+                None => match args.protocol {
+                    DrapeProtocol::Canonical => canonical_settings(),
+                    DrapeProtocol::Walk => SequenceSettings::default(),
+                },
             }
         }
     };
@@ -316,6 +325,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         threads: args.threads,
         shard: Shard::parse(&args.shard)?,
         reuse: args.reuse.clone(),
+        protocol: args.protocol,
     };
     let shard_materials = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))

@@ -15,6 +15,7 @@ use crate::anchor::BodyAnchor;
 use crate::error::{Error, Result};
 use crate::math::{Iso3, Real, Vec3};
 use crate::mesh::TriMesh;
+use crate::pose::Pose;
 use crate::sdf::SkinnedBody;
 use crate::skeleton::JOINT_COUNT;
 use crate::spring::{Spring, provot_springs};
@@ -123,6 +124,8 @@ pub struct Garment {
     pub resolution: Resolution,
     /// The four openings.
     pub boundary: Vec<BoundaryLoop>,
+    /// The pose the rest mesh is dressed in: every canonical drape starts there.
+    pub rest_pose: Pose,
 }
 
 impl Garment {
@@ -168,6 +171,7 @@ impl Garment {
             panels: pattern.panels,
             resolution,
             boundary,
+            rest_pose: Pose::zero(),
         })
     }
 

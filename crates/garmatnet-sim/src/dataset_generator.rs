@@ -1,11 +1,15 @@
 //! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body,
 //! written as a resumable, shardable dataset ([`crate::dataset`]).
 //!
-//! Materials run in parallel (rayon), each walking the whole pose sequence in order so every
-//! pose is warm-started from the previous one ([`drape_sequence`]). A material whose first
-//! `k` poses are on disk resumes from pose `k - 1`'s saved garment, and because sequences
-//! round their state to the f32 precision samples are stored in, the resumed run writes the
-//! same bytes an uninterrupted run would (tested).
+//! Materials run in parallel (rayon). Under the [canonical protocol](DrapeProtocol::Canonical)
+//! (revision 3, the default of `garmatnet simulate`) each sample is draped on its own from its
+//! material's rest drape ([`CanonicalDraper`]), the poses of a material spread over the
+//! workers too, and a resumed run drapes exactly the samples not on disk. Under the
+//! [walk](DrapeProtocol::Walk) each material walks the whole pose sequence in order, every
+//! pose warm-started from the previous one ([`drape_sequence`]); a material whose first `k`
+//! poses are on disk resumes from pose `k - 1`'s saved garment. Both round their state to the
+//! f32 precision samples are stored in, so a resumed, sharded or differently threaded run
+//! writes the same bytes an uninterrupted one would (tested).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,6 +21,7 @@ use garmatnet_core::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::canonical::{CanonicalDraper, DrapeProtocol};
 use crate::dataset::{DatasetWriter, samples_dir};
 use crate::drape_solver::DrapeStats;
 use crate::error::{Error, Result};
@@ -161,6 +166,10 @@ pub struct GenerateConfig {
     pub resolution: Resolution,
     /// Solver and sequence-walking settings.
     pub sequence: SequenceSettings,
+    /// How each sample is draped: [`DrapeProtocol::Canonical`] (each on its own, from the
+    /// rest drape; revision 3's datasets) or [`DrapeProtocol::Walk`] (each from the previous
+    /// pose of its material's walk).
+    pub protocol: DrapeProtocol,
     /// The smoothing that splits drapes into smooth garment and details.
     pub smoothing: SmoothingSettings,
     /// Worker threads (materials in parallel); 0 = rayon's default (all cores).
@@ -263,6 +272,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
             weights: format!("{:?}", config.smoothing.weights).to_lowercase(),
         },
         ground_truth_revision: Some(GROUND_TRUTH_REVISION),
+        protocol: config.protocol,
     })
 }
 
@@ -296,13 +306,17 @@ pub fn generate_dataset(
     let shard_samples = materials.len() * config.poses.len();
     // A material's walk resumes at its first unfinished pose and drapes every pose after it
     // (the walk is continuous), so finished samples past a gap are written again: only the
-    // poses before that first gap are skipped.
+    // poses before that first gap are skipped. Canonical samples stand alone: every finished
+    // one is skipped.
     let skipped: usize = materials
         .iter()
-        .map(|&m| {
-            (0..config.poses.len())
+        .map(|&m| match config.protocol {
+            DrapeProtocol::Walk => (0..config.poses.len())
                 .find(|&p| !writer.is_done(m, p))
-                .unwrap_or(config.poses.len())
+                .unwrap_or(config.poses.len()),
+            DrapeProtocol::Canonical => (0..config.poses.len())
+                .filter(|&p| writer.is_done(m, p))
+                .count(),
         })
         .sum();
     on_progress(GenerateEvent::Started {
@@ -310,7 +324,29 @@ pub fn generate_dataset(
         done: skipped,
     });
 
-    let run_material = |m: usize| -> Result<(usize, usize, f64)> {
+    // Writes one draped sample with its derived arrays and reports it.
+    let record = |m: usize, p: usize, x: &[Vec3], stats: &DrapeStats, sample_ms: f64| {
+        let arrays = deriver.arrays(x, &config.poses[p])?;
+        let sample_stats = SampleStats {
+            iterations: stats.iterations as u64,
+            residual: stats.final_residual,
+            max_penetration_m: stats.max_penetration,
+            max_depth_before_projection_m: Some(stats.max_depth_before_projection),
+            max_strain: stats.max_strain,
+            wall_time_ms: sample_ms,
+            converged: stats.converged,
+        };
+        writer.write_sample(m, p, &arrays, sample_stats)?;
+        on_progress(GenerateEvent::Sample(SampleDone {
+            material: m,
+            pose: p,
+            converged: stats.converged,
+            wall_time_ms: sample_ms,
+        }));
+        Ok::<(), Error>(())
+    };
+
+    let walk_material = |m: usize| -> Result<(usize, usize, f64)> {
         let n_poses = config.poses.len();
         let Some(next) = (0..n_poses).find(|&p| !writer.is_done(m, p)) else {
             return Ok((0, 0, 0.0));
@@ -332,26 +368,10 @@ pub fn generate_dataset(
                 return Err(Error::Interrupted);
             }
             let sample_ms = last.elapsed().as_secs_f64() * 1e3;
-            let arrays = deriver.arrays(x, &config.poses[p])?;
-            let sample_stats = SampleStats {
-                iterations: stats.iterations as u64,
-                residual: stats.final_residual,
-                max_penetration_m: stats.max_penetration,
-                max_depth_before_projection_m: Some(stats.max_depth_before_projection),
-                max_strain: stats.max_strain,
-                wall_time_ms: sample_ms,
-                converged: stats.converged,
-            };
-            writer.write_sample(m, p, &arrays, sample_stats)?;
+            record(m, p, x, stats, sample_ms)?;
             written += 1;
             failed += usize::from(!stats.converged);
             time += sample_ms;
-            on_progress(GenerateEvent::Sample(SampleDone {
-                material: m,
-                pose: p,
-                converged: stats.converged,
-                wall_time_ms: sample_ms,
-            }));
             last = Instant::now();
             Ok(())
         };
@@ -367,24 +387,64 @@ pub fn generate_dataset(
         Ok((written, failed, time))
     };
 
-    let results: Vec<Result<(usize, usize, f64)>> = if config.threads == 1 {
-        materials.iter().map(|&m| run_material(m)).collect()
-    } else {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(config.threads)
-            .build()
-            .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
-        // One material per task: rayon may otherwise hand a worker a run of several
-        // materials to walk sequentially while the other workers sit idle at the end
-        // (seen: the last two materials of a 30-material run on one worker of two).
-        pool.install(|| {
-            materials
-                .par_iter()
-                .with_max_len(1)
-                .map(|&m| run_material(m))
-                .collect()
-        })
+    // Every unfinished sample of material `m`, each on its own from the material's rest
+    // drape (made once), its poses spread over the workers. A sample's recorded cost is its
+    // own path and converge plus an equal share of the rest drape.
+    let canonical_material = |m: usize| -> Result<(usize, usize, f64)> {
+        let todo: Vec<usize> = (0..config.poses.len())
+            .filter(|&p| !writer.is_done(m, p))
+            .collect();
+        if todo.is_empty() {
+            return Ok((0, 0, 0.0));
+        }
+        if should_stop() {
+            return Err(Error::Interrupted);
+        }
+        let started = Instant::now();
+        let draper = CanonicalDraper::new(garment, body, &config.materials[m].1, &config.sequence)?;
+        let rest_share_ms = started.elapsed().as_secs_f64() * 1e3 / todo.len() as f64;
+        let done: Vec<Result<(bool, f64)>> = todo
+            .par_iter()
+            .with_max_len(1)
+            .map(|&p| {
+                if should_stop() {
+                    return Err(Error::Interrupted);
+                }
+                let started = Instant::now();
+                let (x, stats) = draper.drape(&config.poses[p])?;
+                let sample_ms = started.elapsed().as_secs_f64() * 1e3 + rest_share_ms;
+                record(m, p, &x, &stats, sample_ms)?;
+                Ok((stats.converged, sample_ms))
+            })
+            .collect();
+        let (mut written, mut failed, mut time) = (0, 0, 0.0);
+        for d in done {
+            let (converged, ms) = d?;
+            written += 1;
+            failed += usize::from(!converged);
+            time += ms;
+        }
+        Ok((written, failed, time))
     };
+    let run_material = |m: usize| match config.protocol {
+        DrapeProtocol::Walk => walk_material(m),
+        DrapeProtocol::Canonical => canonical_material(m),
+    };
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(config.threads)
+        .build()
+        .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
+    // One material per task: rayon may otherwise hand a worker a run of several
+    // materials to walk sequentially while the other workers sit idle at the end
+    // (seen: the last two materials of a 30-material run on one worker of two).
+    let results: Vec<Result<(usize, usize, f64)>> = pool.install(|| {
+        materials
+            .par_iter()
+            .with_max_len(1)
+            .map(|&m| run_material(m))
+            .collect()
+    });
     writer.flush()?;
     let mut report = GenerateReport {
         imported,

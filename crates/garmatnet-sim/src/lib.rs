@@ -6,6 +6,7 @@
 //! relative to the moving body.
 
 pub mod arm_clearance;
+pub mod canonical;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -26,6 +27,9 @@ pub mod sample_arrays;
 pub mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
+pub use canonical::{
+    CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings,
+};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
@@ -33,7 +37,7 @@ pub use dataset_generator::{
     BODY_NAME, GenerateConfig, GenerateEvent, GenerateReport, SampleDeriver, SampleDone,
     dataset_spec, generate_dataset,
 };
-pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
+pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};

@@ -65,7 +65,8 @@ pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{
-    ErrorStats, FrameComparison, MaterialErrors, MaterialSupport, ModelSizes, NearestTraining,
+    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
+    NearestTraining,
     PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 pub use showcase::{

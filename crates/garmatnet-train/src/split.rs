@@ -677,6 +677,7 @@ mod tests {
                 weights: "uniform".into(),
             },
             ground_truth_revision: None,
+            protocol: Default::default(),
         }
     }
 

@@ -950,6 +950,7 @@ pub(crate) mod tests {
         assert_ne!(other.fingerprint(), split.fingerprint());
         other.write(&split_file).unwrap();
         let inputs = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data.clone(),
             model: model_path.clone(),
             baseline: None,
