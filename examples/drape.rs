@@ -100,7 +100,7 @@ fn main() -> Result<()> {
         args.device
     );
     // How far each fabric lies from what the model learned: the farther from its nearest
-    // training fabric, the larger the error to expect (README, "The typed API").
+    // training fabric, the larger the error to expect (book/src/api.md).
     for (name, material) in &fabrics {
         if let Some((nearest, distance)) = predictor.nearest_training_fabric(material) {
             if distance == 0.0 {

@@ -53,8 +53,7 @@ pub struct CalibrateArgs {
 
 /// The default reference frames of the training motion: frame 1, a pose the shipped model
 /// was trained on (it held out every 10th frame, frame 0 among them). Three frames
-/// (`1..=3`) measured no better (EXPERIMENTS.md, "A fabric calibrated with simulated
-/// drapes").
+/// (`1..=3`) measured no better (book/src/experiments/calibration.md).
 const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
 
 /// Runs `calibrate`.

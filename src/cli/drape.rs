@@ -169,7 +169,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             warnln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
                  on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
-                 erred about twice as much as nearer ones (README, \"The typed API\"): \
+                 erred about twice as much as nearer ones (book/src/api.md): \
                  expect a larger error",
                 model_path.display(),
                 nearest.name
@@ -373,7 +373,7 @@ fn compare_sequence(
 ) -> Result<Vec<TriMesh>> {
     let template = Garment::tshirt(predictor.model().meta.template.resolution, body)?;
     // From the rest drape to the first frame, then frame to frame, as datasets are made: the
-    // drapes depend on that path (README, "The ground truth's noise floor").
+    // drapes depend on that path (book/src/solver.md, "The ground truth's noise floor").
     outln!(
         "simulating {} frames (rest pose, then each frame in turn; seconds a frame) ...",
         frames.len()

@@ -235,7 +235,7 @@ pub fn surface_steps(
 /// with the body and slides only where it is pulled harder than the Coulomb bound. The
 /// solver's [`DrapeSettings::max_iterations`] is the budget of a step: [`drape_sequence`]
 /// converges every pose (its default cap, 300), while an interactive application can stop
-/// after a few iterations. Measured (README, "The ground-truth solver"; `cargo run -p
+/// after a few iterations. Measured (book/src/solver.md; `cargo run -p
 /// garmatnet-sim --release --example frame_budget`): at the paper resolution, 8 iterations
 /// per frame of the gentle motion take about 0.3 s on one core and stay as close to the
 /// dataset's walked drapes as fully converged frames stepped the same way.

@@ -214,7 +214,7 @@ fn coarse_shirt_hangs_on_the_rest_body_and_converges_at_every_pose() {
 fn mixed_precision_walks_the_coarse_shirt_to_the_same_drapes() {
     // Single-precision factors with double-precision refinement: every pose converges, and
     // the drapes land where the double-precision walk puts them, within a micrometre (on
-    // these three frames; longer walks of finer shirts drift apart, README).
+    // these three frames; longer walks of finer shirts drift apart, book/src/solver.md).
     let (body, garment) = coarse();
     let m = Material::preset("Cotton Poplin").unwrap();
     let poses = MotionGenerator::new(3, 3).generate();

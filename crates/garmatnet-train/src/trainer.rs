@@ -110,7 +110,7 @@ impl Default for TrainConfig {
             scale_free_material: false,
             pose_encoding: PoseEncoding::AxisAngle,
             // Canonical won on the 30 x 200 dataset: whole-test error 10.52 vs 10.97 mm
-            // (README, "The shipped model and Table 2").
+            // (book/src/results.md).
             displacement_frame: DisplacementFrame::Canonical,
             split: SplitConfig::default(),
             allow_incomplete_dataset: false,
