@@ -181,7 +181,8 @@ impl Pose {
     /// The pose mirrored through the body's sagittal plane (x → −x): left and right joints
     /// swap ([`MIRRORED_JOINTS`]) and each axis-angle vector `(x, y, z)` becomes
     /// `(x, −y, −z)` (an axial vector under a reflection). Exact; mirroring twice gives the
-    /// pose back bit for bit, and a left-right symmetric pose is its own mirror.
+    /// pose back (bit for bit, but for −0.0 which becomes +0.0), and a left-right symmetric
+    /// pose is its own mirror.
     ///
     /// ```
     /// use garmatnet_core::{Pose, Vec3};
@@ -197,7 +198,9 @@ impl Pose {
         Pose {
             axis_angle: std::array::from_fn(|j| {
                 let v = self.axis_angle[MIRRORED_JOINTS[j]];
-                Vec3::new(v.x, -v.y, -v.z)
+                // `0.0 - y`, not `-y`: a zero stays +0.0, so a symmetric pose built from
+                // zeros is its own mirror bit for bit.
+                Vec3::new(v.x, 0.0 - v.y, 0.0 - v.z)
             }),
         }
     }

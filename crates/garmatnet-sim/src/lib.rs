@@ -62,6 +62,7 @@ pub use pose_sampler::{
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;
 pub use self_intersection::{
-    DEFAULT_ARM_GAP, LIMB_ROOT_FRACTION, SelfContact, SelfIntersection, self_intersection,
+    DEFAULT_ARM_GAP, SelfContact, SelfIntersection, THIGH_ROOT_FRACTION, UPPER_ARM_ROOT_FRACTION,
+    self_intersection,
 };
 pub use shard::{MergeReport, Shard, merge_shards};
