@@ -112,14 +112,14 @@ impl std::fmt::Display for MotionKind {
 }
 
 impl std::str::FromStr for MotionKind {
-    type Err = anyhow::Error;
+    type Err = String;
 
-    fn from_str(s: &str) -> Result<Self> {
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
         if s.trim().eq_ignore_ascii_case("independent") {
             return Ok(MotionKind::Independent);
         }
         s.parse::<MotionPace>().map(MotionKind::Walk).map_err(|_| {
-            anyhow::anyhow!(
+            format!(
                 "unknown motion `{s}`: use `independent` (the default: independent poses), \
                  `brisk` (a walk, the datasets made before independent poses) or `gentle` \
                  (a walk, the datasets made before the brisk pace)"

@@ -447,7 +447,8 @@ mod tests {
         let mirror = crate::math::Mat3::from_diagonal(&Vec3::new(-1.0, 1.0, 1.0));
         for j in 0..JOINT_COUNT {
             let twin = MIRRORED_JOINTS[j];
-            let expected = mirror * p.joint_rotation(twin).to_rotation_matrix().into_inner() * mirror;
+            let expected =
+                mirror * p.joint_rotation(twin).to_rotation_matrix().into_inner() * mirror;
             let got = m.joint_rotation(j).to_rotation_matrix().into_inner();
             assert!((expected - got).abs().max() < 1e-12, "joint {j}");
         }

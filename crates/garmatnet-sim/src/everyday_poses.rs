@@ -89,8 +89,12 @@ pub fn everyday_poses() -> Vec<EverydayPose> {
         arm(75.0, 15.0, 0.0, 0.2).apply(p, Side::Left);
         arms_down().apply(p, Side::Right);
     });
-    add("both-arms-raised", true, &|p| both(p, arm(72.0, 15.0, 0.0, 0.3)));
-    add("reaching-forward", true, &|p| both(p, arm(-5.0, 80.0, 0.0, 0.15)));
+    add("both-arms-raised", true, &|p| {
+        both(p, arm(72.0, 15.0, 0.0, 0.3))
+    });
+    add("reaching-forward", true, &|p| {
+        both(p, arm(-5.0, 80.0, 0.0, 0.15))
+    });
     add("arms-crossed", false, &|p| {
         // The forearms cross in front of the chest, the right one lower and further out.
         arm(-38.0, 77.0, 36.0, 1.89).apply(p, Side::Left);
@@ -200,7 +204,12 @@ mod tests {
         assert_eq!(names.len(), suite.len(), "names are unique");
         for (i, a) in suite.iter().enumerate() {
             for b in &suite[i + 1..] {
-                assert!(a.pose.max_joint_angle_to(&b.pose) > 0.1, "{} ~ {}", a.name, b.name);
+                assert!(
+                    a.pose.max_joint_angle_to(&b.pose) > 0.1,
+                    "{} ~ {}",
+                    a.name,
+                    b.name
+                );
             }
         }
         assert_eq!(everyday_pose("Hands-On-Hips").unwrap(), suite[3].pose);
@@ -230,7 +239,12 @@ mod tests {
                 .validate(&p.pose, 0.0)
                 .unwrap_or_else(|e| panic!("{}: {e}", p.name));
             p.pose.validate().unwrap();
-            assert!(check.worst(&p.pose).is_none(), "{}: {:?}", p.name, check.worst(&p.pose));
+            assert!(
+                check.worst(&p.pose).is_none(),
+                "{}: {:?}",
+                p.name,
+                check.worst(&p.pose)
+            );
         }
         // The arms really hang: 72° below the horizontal, measured on the posed skeleton.
         let sides = everyday_pose("arms-at-sides").unwrap();

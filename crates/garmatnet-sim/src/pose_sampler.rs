@@ -87,7 +87,11 @@ impl ArmPlacement {
         let swing = UnitQuat::rotation_between(&rest, &target).unwrap_or_else(UnitQuat::identity);
         let twist = UnitQuat::from_scaled_axis(target * self.twist_rad);
         let shoulder = UnitQuat::from_scaled_axis(collar).inverse() * twist * swing;
-        [collar, shoulder.scaled_axis(), Vec3::new(0.0, -self.elbow_flex_rad, 0.0)]
+        [
+            collar,
+            shoulder.scaled_axis(),
+            Vec3::new(0.0, -self.elbow_flex_rad, 0.0),
+        ]
     }
 
     /// Sets `side`'s collar, shoulder and elbow in `pose` (SMPL's skeleton proportions, as
@@ -108,7 +112,11 @@ impl ArmPlacement {
             // Zeros made +0.0 (`c + 0.0`), as `Pose::mirrored` makes them: symmetric poses
             // are their own mirror bit for bit.
             let v = v.map(|c| c + 0.0);
-            let v = if mirror { Vec3::new(v.x, 0.0 - v.y, 0.0 - v.z) } else { v };
+            let v = if mirror {
+                Vec3::new(v.x, 0.0 - v.y, 0.0 - v.z)
+            } else {
+                v
+            };
             pose.set_joint(j, v);
         }
     }
@@ -283,7 +291,8 @@ impl PoseSampler {
                 let mut ok = false;
                 for _ in 0..ARM_RETRIES {
                     let mut candidate = pose.clone();
-                    self.draw_arm(&mut rng, band).apply_on(skeleton, &mut candidate, side);
+                    self.draw_arm(&mut rng, band)
+                        .apply_on(skeleton, &mut candidate, side);
                     draw_forearm(&mut rng, limits, &mut candidate, side);
                     if limits.validate(&candidate, 0.0).is_ok()
                         && self.check.worst(&candidate).is_none()
@@ -321,11 +330,20 @@ impl PoseSampler {
     fn draw_arm(&self, rng: &mut SplitMix64, band: Real) -> ArmPlacement {
         let deg = |d: Real| d.to_radians();
         let (elevation, azimuth) = if band < self.config.hanging_fraction {
-            (rng.uniform(deg(-88.0), deg(-60.0)), rng.uniform(deg(-40.0), deg(30.0)))
+            (
+                rng.uniform(deg(-88.0), deg(-60.0)),
+                rng.uniform(deg(-40.0), deg(30.0)),
+            )
         } else if band < self.config.hanging_fraction + self.config.raised_fraction {
-            (rng.uniform(deg(45.0), deg(85.0)), rng.uniform(deg(-30.0), deg(100.0)))
+            (
+                rng.uniform(deg(45.0), deg(85.0)),
+                rng.uniform(deg(-30.0), deg(100.0)),
+            )
         } else {
-            (rng.uniform(deg(-60.0), deg(45.0)), rng.uniform(deg(-45.0), deg(110.0)))
+            (
+                rng.uniform(deg(-60.0), deg(45.0)),
+                rng.uniform(deg(-45.0), deg(110.0)),
+            )
         };
         let elbow = if rng.next_f64() < 0.3 {
             rng.uniform(0.0, 0.25)
@@ -435,8 +453,22 @@ impl PoseSampler {
             let level = -(hip + knee) * 0.4 + rng.uniform(-0.15, 0.15);
             pose.set_joint(ankle, Vec3::new(level, 0.0, 0.0));
         }
-        pose.set_joint(12, Vec3::new(rng.uniform(-0.2, 0.25), rng.uniform(-0.3, 0.3), rng.uniform(-0.15, 0.15)));
-        pose.set_joint(15, Vec3::new(rng.uniform(-0.15, 0.2), rng.uniform(-0.2, 0.2), rng.uniform(-0.1, 0.1)));
+        pose.set_joint(
+            12,
+            Vec3::new(
+                rng.uniform(-0.2, 0.25),
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-0.15, 0.15),
+            ),
+        );
+        pose.set_joint(
+            15,
+            Vec3::new(
+                rng.uniform(-0.15, 0.2),
+                rng.uniform(-0.2, 0.2),
+                rng.uniform(-0.1, 0.1),
+            ),
+        );
         pose
     }
 }
@@ -450,7 +482,8 @@ fn draw_forearm(rng: &mut SplitMix64, limits: &JointLimits, pose: &mut Pose, sid
     let mut e = pose.joint(elbow);
     e.x = rng.uniform(-0.4, 0.4);
     pose.set_joint(elbow, e);
-    let w = Vec3::from_fn(|c, _| rng.uniform(0.6 * limits.min[wrist][c], 0.6 * limits.max[wrist][c]));
+    let w =
+        Vec3::from_fn(|c, _| rng.uniform(0.6 * limits.min[wrist][c], 0.6 * limits.max[wrist][c]));
     pose.set_joint(wrist, w);
 }
 
@@ -486,7 +519,12 @@ mod tests {
     #[test]
     fn an_arm_placement_points_the_upper_arm_where_it_says() {
         let skeleton = Skeleton::smpl_neutral();
-        for (e, a) in [(-80.0_f64, 10.0_f64), (0.0, 0.0), (30.0, 90.0), (70.0, -20.0)] {
+        for (e, a) in [
+            (-80.0_f64, 10.0_f64),
+            (0.0, 0.0),
+            (30.0, 90.0),
+            (70.0, -20.0),
+        ] {
             let placement = ArmPlacement {
                 elevation_rad: e.to_radians(),
                 azimuth_rad: a.to_radians(),
@@ -530,9 +568,18 @@ mod tests {
         assert_eq!(bits(&in_pool(1)), bits(&eight));
         assert_eq!(bits(&in_pool(3)), bits(&eight));
         let other = sampler(43).poses(8).unwrap();
-        assert!(other.iter().zip(&eight).all(|(a, b)| a.max_joint_angle_to(b) > 0.05));
+        assert!(
+            other
+                .iter()
+                .zip(&eight)
+                .all(|(a, b)| a.max_joint_angle_to(b) > 0.05)
+        );
         // Poses are independent: neighbours are as far apart as any two.
-        assert!(eight.windows(2).all(|w| w[0].max_joint_angle_to(&w[1]) > 0.2));
+        assert!(
+            eight
+                .windows(2)
+                .all(|w| w[0].max_joint_angle_to(&w[1]) > 0.2)
+        );
     }
 
     #[test]
@@ -624,7 +671,11 @@ mod tests {
         let (mut low, mut high, mut bent, mut twisted, mut apart) = (0, 0, 0, 0, 0);
         let (mut forward, mut behind) = (0, 0);
         for (i, pose) in poses.iter().enumerate() {
-            assert!(check.worst(pose).is_none(), "pose {i}: {:?}", check.worst(pose));
+            assert!(
+                check.worst(pose).is_none(),
+                "pose {i}: {:?}",
+                check.worst(pose)
+            );
             limits.validate(pose, 0.0).unwrap();
             let world = skeleton.world_transforms(pose);
             let joints = skeleton.posed_joints(pose);
@@ -659,7 +710,10 @@ mod tests {
         ];
         for (what, got, lo, hi) in fractions {
             println!("{what}: {got:.3}");
-            assert!((lo..=hi).contains(&got), "{what}: {got:.3} not in {lo}..{hi}");
+            assert!(
+                (lo..=hi).contains(&got),
+                "{what}: {got:.3} not in {lo}..{hi}"
+            );
         }
     }
 }

@@ -23,7 +23,7 @@
 //! within a few tenths of a millimetre).
 
 use garmatnet_core::{
-    Capsule, CapsuleBody, JOINT_NAMES, PARENTS, Pose, Real, SkinnedBody, Skeleton, Vec3,
+    Capsule, CapsuleBody, JOINT_NAMES, PARENTS, Pose, Real, Skeleton, SkinnedBody, Vec3,
 };
 
 use crate::arm_clearance::closest_parameters;
@@ -344,7 +344,11 @@ mod tests {
         assert!(rest.gap_m > 0.03, "{rest:?}");
         // Arms hanging 72° below the horizontal: close to the torso, but a centimetre off.
         let down = arms(-72.0, -10.0, 0.15);
-        assert!(check().worst(&down).is_none(), "{:?}", check().closest(&down));
+        assert!(
+            check().worst(&down).is_none(),
+            "{:?}",
+            check().closest(&down)
+        );
         check().check(&down).unwrap();
     }
 
@@ -373,7 +377,10 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert_eq!(self_intersection(&CapsuleBody::smpl_neutral(), &pose), Some(contact));
+        assert_eq!(
+            self_intersection(&CapsuleBody::smpl_neutral(), &pose),
+            Some(contact)
+        );
     }
 
     #[test]
@@ -410,7 +417,9 @@ mod tests {
         sitting.set_joint(2, Vec3::new(-1.5, 0.0, 0.0));
         sitting.set_joint(4, Vec3::new(1.5, 0.0, 0.0));
         sitting.set_joint(5, Vec3::new(1.5, 0.0, 0.0));
-        let contact = check().worst(&sitting).expect("forearm in the thigh refused");
+        let contact = check()
+            .worst(&sitting)
+            .expect("forearm in the thigh refused");
         assert!(contact.gap_m < DEFAULT_ARM_GAP, "{contact:?}");
     }
 
