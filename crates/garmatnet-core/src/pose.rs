@@ -445,8 +445,7 @@ mod tests {
         assert_eq!(m.joint(3), Vec3::new(s.x, -s.y, -s.z));
         // Mirroring commutes with rotation: the mirrored rotation is M R M, M = diag(-1, 1, 1).
         let mirror = crate::math::Mat3::from_diagonal(&Vec3::new(-1.0, 1.0, 1.0));
-        for j in 0..JOINT_COUNT {
-            let twin = MIRRORED_JOINTS[j];
+        for (j, &twin) in MIRRORED_JOINTS.iter().enumerate() {
             let expected =
                 mirror * p.joint_rotation(twin).to_rotation_matrix().into_inner() * mirror;
             let got = m.joint_rotation(j).to_rotation_matrix().into_inner();
