@@ -123,7 +123,7 @@ impl ArmPlacement {
 }
 
 /// The default fraction of arms drawn hanging at the side.
-pub const DEFAULT_HANGING_FRACTION: Real = 0.4;
+pub const DEFAULT_HANGING_FRACTION: Real = 0.5;
 
 /// The default fraction of arms drawn raised above 45°.
 pub const DEFAULT_RAISED_FRACTION: Real = 0.2;
