@@ -97,9 +97,8 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
 /// Resolves a `--frames` argument: which poses of a pose file (`pose_file`, `.json`, `.npz`,
 /// `.npy`) or of the everyday suite (`pose_file` = `everyday`), or of the built-in motion
 /// sequence ([`DEFAULT_MOTION_SEED`], [`DEFAULT_MOTION_FRAMES`]) when there is none, to
-/// predict in order. `frames` is
-/// `START..END` (END excluded), `START..=END`, `START..` (to the last pose) or `all`;
-/// returns each pose with its index.
+/// predict in order. `frames` is `START..END` (END excluded), `START..=END`, `START..` (to
+/// the last pose) or `all`; returns each pose with its index.
 ///
 /// # Errors
 /// [`CoreError::InvalidArgument`] for another form or an empty range;
@@ -133,7 +132,8 @@ fn pose_list(spec: &str) -> Result<Vec<Pose>> {
 
 /// The frames of the shipped model's training motion: [`DEFAULT_MOTION_SEED`],
 /// [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm clearance, the poses of
-/// `garmatnet simulate --poses 200 --seed 0`. `frames` as in [`resolve_frames`].
+/// `garmatnet simulate --poses 200 --seed 0 --motion brisk` (the default before independent
+/// poses). `frames` as in [`resolve_frames`].
 ///
 /// # Errors
 /// As [`resolve_frames`].
