@@ -8,8 +8,8 @@
 
 use garmatnet_core::{Error as CoreError, Pose, Real, Vec3};
 
+use crate::arm_placement::{ArmPlacement, Side};
 use crate::error::Result;
-use crate::pose_sampler::{ArmPlacement, Side};
 
 /// One pose of the everyday suite.
 #[derive(Debug, Clone, PartialEq)]

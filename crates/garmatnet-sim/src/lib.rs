@@ -6,6 +6,7 @@
 //! relative to the moving body.
 
 pub mod arm_clearance;
+pub mod arm_placement;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -29,6 +30,7 @@ pub mod self_intersection;
 pub mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
+pub use arm_placement::{ArmPlacement, Side};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
@@ -56,8 +58,7 @@ pub use motion::{
     rest_deviation,
 };
 pub use pose_sampler::{
-    ArmPlacement, DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, PoseSampler,
-    PoseSamplerConfig, Side,
+    DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, PoseSampler, PoseSamplerConfig,
 };
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;

@@ -315,7 +315,7 @@ pub fn self_intersection(body: &CapsuleBody, pose: &Pose) -> Option<SelfContact>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pose_sampler::{ArmPlacement, Side};
+    use crate::arm_placement::{ArmPlacement, Side};
     use std::sync::OnceLock;
 
     fn check() -> &'static SelfIntersection {
