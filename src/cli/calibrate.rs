@@ -36,8 +36,8 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub name: Option<String>,
     /// A pose file (.json, .npz, .npy) whose --frames are the reference poses. Default: the
-    /// shipped model's training motion (`simulate --poses 200 --seed 0`), walked from its
-    /// first frame; reference poses should be poses the model was trained on.
+    /// shipped model's training motion (`simulate --poses 200 --seed 0 --motion brisk`),
+    /// walked from its first frame; reference poses should be poses the model was trained on.
     #[arg(long)]
     pub pose: Option<String>,
     /// The reference frames: `START..END` (END excluded), `START..=END` or `START..`.

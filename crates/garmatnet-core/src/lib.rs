@@ -52,7 +52,9 @@ pub use pose::{JointLimits, MAX_POSE_COMPONENT, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use pose_file::{read_pose_frame_rate, read_poses, write_poses_json};
 pub use rng::SplitMix64;
 pub use sdf::{PUSH_SLACK, SignedDistance, SkinnedBody, Sphere, unit_normal};
-pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
+pub use skeleton::{
+    JOINT_COUNT, JOINT_NAMES, MIRRORED_JOINTS, PARENTS, Skeleton, blend_point, joint_index,
+};
 pub use smpl_capsules::smpl_neutral_capsules;
 pub use spring::{Spring, SpringKind};
 pub use surface_nets::surface_nets;

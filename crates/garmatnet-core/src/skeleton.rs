@@ -67,6 +67,13 @@ pub const PARENTS: [Option<usize>; JOINT_COUNT] = [
     Some(21),
 ];
 
+/// Each joint's left-right twin: `MIRRORED_JOINTS[j]` is the joint that plays `j`'s part in
+/// the body mirrored through its sagittal plane (x → −x). Left and right joints swap; the
+/// centre joints (pelvis, spine, neck, head) map to themselves. An involution.
+pub const MIRRORED_JOINTS: [usize; JOINT_COUNT] = [
+    0, 2, 1, 3, 5, 4, 6, 8, 7, 9, 11, 10, 12, 14, 13, 15, 17, 16, 19, 18, 21, 20, 23, 22,
+];
+
 /// SMPL's mean neutral rest joints (metres), T-pose.
 const SMPL_NEUTRAL_JOINTS: [[Real; 3]; JOINT_COUNT] = [
     [-0.002, -0.223, 0.028],
@@ -195,6 +202,24 @@ pub fn blend_point(
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn mirrored_joints_swap_left_and_right_names_and_parents() {
+        for (j, name) in JOINT_NAMES.iter().enumerate() {
+            let twin = MIRRORED_JOINTS[j];
+            assert_eq!(MIRRORED_JOINTS[twin], j, "not an involution at {name}");
+            let expected = if name.starts_with("left_") {
+                name.replacen("left_", "right_", 1)
+            } else if name.starts_with("right_") {
+                name.replacen("right_", "left_", 1)
+            } else {
+                (*name).to_owned()
+            };
+            assert_eq!(JOINT_NAMES[twin], expected);
+            // The twin's parent is the parent's twin: the map respects the tree.
+            assert_eq!(PARENTS[twin], PARENTS[j].map(|p| MIRRORED_JOINTS[p]));
+        }
+    }
 
     #[test]
     fn parents_precede_children() {

@@ -7,6 +7,7 @@
 
 pub mod arm_clearance;
 pub mod canonical;
+pub mod arm_placement;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -16,20 +17,24 @@ mod drape_energy;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
+pub mod everyday_poses;
 pub mod garment_drape;
 pub mod grid_sheet;
 pub mod manifest;
 pub mod motion;
 mod nested_dissection;
 mod newton_system;
+pub mod pose_sampler;
 pub mod reuse;
 pub mod sample_arrays;
+pub mod self_intersection;
 pub mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 pub use canonical::{
     CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings,
 };
+pub use arm_placement::{ArmPlacement, Side};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
@@ -41,6 +46,7 @@ pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, c
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
+pub use everyday_poses::{EverydayPose, everyday_pose, everyday_pose_names, everyday_poses};
 pub use garment_drape::{
     FrameStepper, SequenceResume, SequenceSettings, cloth_from_garment, drape_poses,
     drape_sequence, surface_steps,
@@ -55,6 +61,13 @@ pub use motion::{
     MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,
     rest_deviation,
 };
+pub use pose_sampler::{
+    DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, PoseSampler, PoseSamplerConfig,
+};
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;
+pub use self_intersection::{
+    DEFAULT_ARM_GAP, SelfContact, SelfIntersection, THIGH_ROOT_FRACTION, UPPER_ARM_ROOT_FRACTION,
+    self_intersection,
+};
 pub use shard::{MergeReport, Shard, merge_shards};
