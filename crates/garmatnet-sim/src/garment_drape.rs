@@ -431,7 +431,9 @@ pub struct SequenceResume {
 /// a run resumed from a saved sample ([`SequenceResume`]) continues bit-identically to one
 /// that never stopped.
 ///
-/// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
+/// Starts from the rest garment on the body in the garment's rest pose
+/// ([`Garment::rest_pose`]: the A-pose for the fitted shirt, the T-pose for the boxy one)
+/// and drapes it there, then walks
 /// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
 /// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every
 /// step from the previous result (carried with the body when `settings.follow_body`) with
@@ -466,9 +468,10 @@ pub fn drape_sequence(
     let mut all = Vec::new();
     let (positions, mut current, first) = match resume {
         None => {
+            // The rest mesh fits the body in the garment's rest pose: the walk starts there.
             let mut positions = garment.rest.vertices.clone();
-            all.push(solver.drape(&mut positions, &body.pose(&Pose::zero()), &[])?);
-            (positions, Pose::zero(), 0)
+            all.push(solver.drape(&mut positions, &body.pose(&garment.rest_pose), &[])?);
+            (positions, garment.rest_pose.clone(), 0)
         }
         Some(r) => {
             if r.next == 0 || r.next > poses.len() || r.positions.len() != garment.vertex_count() {
