@@ -72,7 +72,8 @@ impl Pose {
     /// let joints = skeleton.posed_joints(&Pose::a_pose());
     /// let (shoulder, elbow) = (joints[16], joints[18]);
     /// let drop = (shoulder.y - elbow.y).atan2(elbow.x - shoulder.x);
-    /// assert!((drop.to_degrees() - 45.0).abs() < 2.0);
+    /// // 45° turn on a bone that already slopes ~3° down in SMPL's T-pose.
+    /// assert!((40.0..50.0).contains(&drop.to_degrees()));
     /// ```
     #[must_use]
     pub fn a_pose() -> Self {

@@ -138,7 +138,7 @@ impl ShirtShape {
         // ease), 2 cm round the upper arm, a crew neck 1.5-2 cm off the neck's base.
         let a = 0.47 * span + 0.022;
         let sleeve_radius = 0.16 * span + 0.019;
-        let x_neck = 0.245 * span;
+        let x_neck = 0.22 * span;
         let y_sleeve_top = ls.y + sleeve_radius;
         let y_ridge_neck = y_sleeve_top + SHOULDER_SLOPE.tan() * (a - x_neck);
         let right = |v: Vec3| Vec3::new(-v.x, v.y, v.z);
