@@ -20,6 +20,24 @@
 //! little above the underarm seam, so the shoulder is covered by the sleeve tube and the
 //! armpit is a saddle where the side seam meets the underarm seam. All sizes come from the
 //! skeleton's joints plus ease, never from a body surface.
+//!
+//! # The two cuts
+//! - **Boxy** ([`GarmentStyle::Boxy`]): the construction above with generous ease (about
+//!   25 cm round the chest), a rectangular neck cut-out and sleeves along the T-pose arms.
+//!   Its mesh is bit-identical to earlier versions (the shipped model's template).
+//! - **Fitted** ([`GarmentStyle::Fitted`], the default), on the skeleton made left-right
+//!   symmetric and built for `u >= 0` then mirrored, so the mesh is exactly symmetric:
+//!   - about 2.2 cm of ease all round the chest (about 10 cm of circumference);
+//!   - a crew neck: the cells inside a half-ellipse under the top edge, as wide as the
+//!     neck plus ease and deeper in front (10 cm of pattern) than at the back (8 cm);
+//!   - a shoulder ridge sloping 12° from the neck's side down to the shoulder point;
+//!   - sleeves for the A-pose ([`crate::Pose::a_pose`]): each band column is a ring
+//!     lofted from the armhole (shoulder point over the top, armpit under it, 7 cm below
+//!     the sleeve's T-pose underarm line) to a cuff square to the A-posed upper arm at 80 %
+//!     of its length; the top seam bows out over the shoulder. The band is 26 cm tall (half
+//!     the armhole), so the sleeve tapers from the armhole to the cuff by compressing the
+//!     grid; the underarm seam is about half the pattern's length in 3-D and the top seam
+//!     about 1.3 times, which is what an angled sleeve would cut into the pattern's outline.
 
 use std::collections::{HashMap, HashSet};
 
@@ -663,35 +681,3 @@ impl Geometry<'_> {
     }
 }
 
-#[cfg(test)]
-mod debug_tests {
-    use super::*;
-    use crate::capsule_body::CapsuleBody;
-    use crate::pose::Pose;
-    use crate::sdf::SignedDistance;
-
-    #[test]
-    #[ignore = "debug"]
-    fn print_fitted_inside() {
-        let body = CapsuleBody::smpl_neutral();
-        let posed = body.pose(&Pose::a_pose());
-        let p = TshirtPattern::build(crate::sdf::SkinnedBody::skeleton(&body), 0.034, GarmentStyle::Fitted).unwrap();
-        println!("it? ic {} jt {}", p.grid.ic, p.grid.jt);
-        for (k, v) in p.vertices.iter().enumerate() {
-            let d = posed.distance(v);
-            if d < 0.008 && v.x >= 0.0 {
-                let uv = p.uv[k];
-                println!(
-                    "{k} ({:.0},{:.0}) {:?} at ({:.3},{:.3},{:.3}) d {:.1} mm",
-                    uv[0] / 0.034,
-                    uv[1] / 0.034,
-                    p.panels[k],
-                    v.x,
-                    v.y,
-                    v.z,
-                    d * 1e3
-                );
-            }
-        }
-    }
-}

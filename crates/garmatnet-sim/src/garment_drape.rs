@@ -247,12 +247,12 @@ pub fn surface_steps(
 /// let body = CapsuleBody::smpl_neutral();
 /// let garment = Garment::tshirt(Resolution::Default, &body)?;
 /// let material = Material::preset("Denim Heavy")?;
-/// // Hang the shirt on the rest pose once, to equilibrium...
+/// // Hang the shirt on its rest pose (the A-pose it is dressed in) once, to equilibrium...
 /// let mut shirt = FrameStepper::new(
-///     &garment, &body, &material, &DrapeSettings::default(), &Pose::zero(),
+///     &garment, &body, &material, &DrapeSettings::default(), &garment.rest_pose,
 ///     garment.rest.vertices.clone(),
 /// )?;
-/// shirt.step(&Pose::zero())?;
+/// shirt.step(&garment.rest_pose)?;
 /// // ...then follow a motion with 8 Newton iterations a frame.
 /// shirt.set_settings(&DrapeSettings { max_iterations: 8, ..DrapeSettings::default() })?;
 /// for pose in MotionGenerator::new(0, 20).generate() {
