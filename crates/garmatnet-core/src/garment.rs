@@ -157,10 +157,7 @@ impl Garment {
     ///
     /// # Errors
     /// As [`Garment::with_style`].
-    pub fn boxy_tshirt(
-        resolution: Resolution,
-        body: &(impl PosableBody + ?Sized),
-    ) -> Result<Self> {
+    pub fn boxy_tshirt(resolution: Resolution, body: &(impl PosableBody + ?Sized)) -> Result<Self> {
         Self::with_style(GarmentStyle::Boxy, resolution, body)
     }
 
@@ -586,7 +583,10 @@ mod tests {
                 .collect()
         });
         let g = GarmentStyle::ALL.iter().position(|&g| g == style).unwrap();
-        let r = Resolution::ALL.iter().position(|&r| r == resolution).unwrap();
+        let r = Resolution::ALL
+            .iter()
+            .position(|&r| r == resolution)
+            .unwrap();
         &all[g][r]
     }
 
@@ -771,8 +771,7 @@ mod tests {
                 .iter()
                 .filter(|f| {
                     let [a, b, c] = f.map(|i| v[i as usize]);
-                    let anchor: Vec3 =
-                        f.iter().map(|&i| on_body[i as usize]).sum::<Vec3>() / 3.0;
+                    let anchor: Vec3 = f.iter().map(|&i| on_body[i as usize]).sum::<Vec3>() / 3.0;
                     (b - a).cross(&(c - a)).dot(&((a + b + c) / 3.0 - anchor)) > 0.0
                 })
                 .count();
@@ -856,7 +855,10 @@ mod tests {
         for style in GarmentStyle::ALL {
             let fat = Fat(CapsuleBody::smpl_neutral());
             let err = Garment::with_style(style, Resolution::Coarse, &fat).unwrap_err();
-            assert!(err.to_string().contains("mm from the body"), "{style}: {err}");
+            assert!(
+                err.to_string().contains("mm from the body"),
+                "{style}: {err}"
+            );
         }
     }
 
@@ -866,7 +868,10 @@ mod tests {
         let g = styled(GarmentStyle::Boxy, Resolution::Default);
         assert_eq!(format!("{:016x}", g.template_hash()), "ceb0ce1e9253e424");
         assert_eq!(g.vertex_count(), 2687);
-        assert_ne!(shirt(Resolution::Default).template_hash(), g.template_hash());
+        assert_ne!(
+            shirt(Resolution::Default).template_hash(),
+            g.template_hash()
+        );
     }
 
     #[test]
@@ -903,7 +908,12 @@ mod tests {
             let springs: HashMap<(u32, u32), (SpringKind, u64)> = g
                 .springs
                 .iter()
-                .map(|s| ((s.a.min(s.b), s.a.max(s.b)), (s.kind, s.rest_length.to_bits())))
+                .map(|s| {
+                    (
+                        (s.a.min(s.b), s.a.max(s.b)),
+                        (s.kind, s.rest_length.to_bits()),
+                    )
+                })
                 .collect();
             for s in &g.springs {
                 let (a, b) = (twin[s.a as usize], twin[s.b as usize]);
@@ -921,7 +931,11 @@ mod tests {
         for r in Resolution::ALL {
             let g = shirt(r);
             let posed = body().pose(&g.rest_pose);
-            let neck = &g.boundary.iter().find(|b| b.opening == Opening::Neck).unwrap();
+            let neck = &g
+                .boundary
+                .iter()
+                .find(|b| b.opening == Opening::Neck)
+                .unwrap();
             let gaps: Vec<Real> = neck
                 .vertices
                 .iter()
@@ -934,7 +948,10 @@ mod tests {
                 "{r}: neckline touches"
             );
             // Measured: mean ~20 mm, max ~42 mm (the front's lowest point, on the chest).
-            assert!(mean < 0.025 && max < 0.05, "{r}: neckline gap mean {mean}, max {max} m");
+            assert!(
+                mean < 0.025 && max < 0.05,
+                "{r}: neckline gap mean {mean}, max {max} m"
+            );
         }
     }
 
@@ -982,7 +999,10 @@ mod tests {
                 .zip(&g.rest.vertices)
                 .map(|(p, v)| (p - v).norm())
                 .fold(0.0, Real::max);
-            assert!(worst < 1e-6, "{style} {r}: rest guess {worst} m off the rest mesh");
+            assert!(
+                worst < 1e-6,
+                "{style} {r}: rest guess {worst} m off the rest mesh"
+            );
             // Each anchor's rest point is the T-pose body point the rest pose carries onto
             // the posed body's surface.
             let posed = body().pose(&g.rest_pose);
@@ -1009,12 +1029,21 @@ mod tests {
         // The arm turns 0.5 rad further down about the shoulder: the cuff's centre drops
         // about 5 cm and swings in about 7 cm; the right cuff stays.
         let centre = |x: &[Vec3], opening: Opening| {
-            let ring = &g.boundary.iter().find(|b| b.opening == opening).unwrap().vertices;
+            let ring = &g
+                .boundary
+                .iter()
+                .find(|b| b.opening == opening)
+                .unwrap()
+                .vertices;
             ring.iter().map(|&i| x[i as usize]).sum::<Vec3>() / ring.len() as Real
         };
         let moved = centre(&posed, Opening::LeftCuff) - centre(&g.rest.vertices, Opening::LeftCuff);
-        assert!(moved.y < -0.03 && moved.x < -0.04, "left cuff moved {moved}");
-        let still = centre(&posed, Opening::RightCuff) - centre(&g.rest.vertices, Opening::RightCuff);
+        assert!(
+            moved.y < -0.03 && moved.x < -0.04,
+            "left cuff moved {moved}"
+        );
+        let still =
+            centre(&posed, Opening::RightCuff) - centre(&g.rest.vertices, Opening::RightCuff);
         assert!(still.norm() < 1e-9, "right cuff moved {still}");
     }
 
@@ -1030,13 +1059,23 @@ mod tests {
             let mut ratio: Vec<Real> = g
                 .springs
                 .iter()
-                .filter(|s| s.kind == SpringKind::StructuralHorizontal || s.kind == SpringKind::StructuralVertical)
+                .filter(|s| {
+                    s.kind == SpringKind::StructuralHorizontal
+                        || s.kind == SpringKind::StructuralVertical
+                })
                 .map(|s| s.rest_length / r.grid_spacing())
                 .collect();
             ratio.sort_by(Real::total_cmp);
-            let neck = g.boundary.iter().find(|b| b.opening == Opening::Neck).unwrap();
-            let gaps: Vec<Real> =
-                neck.vertices.iter().map(|&i| posed.distance(&g.rest.vertices[i as usize])).collect();
+            let neck = g
+                .boundary
+                .iter()
+                .find(|b| b.opening == Opening::Neck)
+                .unwrap();
+            let gaps: Vec<Real> = neck
+                .vertices
+                .iter()
+                .map(|&i| posed.distance(&g.rest.vertices[i as usize]))
+                .collect();
             println!(
                 "neck gap mean {:.1} max {:.1} mm, neck loop length {:.3} m",
                 gaps.iter().sum::<Real>() / gaps.len() as Real * 1e3,
@@ -1044,7 +1083,10 @@ mod tests {
                 neck.vertices
                     .iter()
                     .zip(neck.vertices.iter().cycle().skip(1))
-                    .map(|(&a, &b)| (g.rest.vertices[a as usize] - g.rest.vertices[b as usize]).norm())
+                    .map(
+                        |(&a, &b)| (g.rest.vertices[a as usize] - g.rest.vertices[b as usize])
+                            .norm()
+                    )
                     .sum::<Real>()
             );
             println!(
@@ -1058,7 +1100,11 @@ mod tests {
                 ratio[ratio.len() - 1]
             );
             for b in &g.boundary {
-                let c = b.vertices.iter().map(|&i| g.rest.vertices[i as usize]).sum::<Vec3>()
+                let c = b
+                    .vertices
+                    .iter()
+                    .map(|&i| g.rest.vertices[i as usize])
+                    .sum::<Vec3>()
                     / b.vertices.len() as Real;
                 println!("  {:?} at {c:?}, {} vertices", b.opening, b.vertices.len());
             }
@@ -1067,8 +1113,10 @@ mod tests {
         crate::io::write_obj(std::path::Path::new("/tmp/fitted_default.obj"), &g.rest).unwrap();
         for s in &g.springs {
             let ratio = s.rest_length / Resolution::Default.grid_spacing();
-            if matches!(s.kind, SpringKind::StructuralHorizontal | SpringKind::StructuralVertical)
-                && !(0.5..=2.0).contains(&ratio)
+            if matches!(
+                s.kind,
+                SpringKind::StructuralHorizontal | SpringKind::StructuralVertical
+            ) && !(0.5..=2.0).contains(&ratio)
                 && g.rest.vertices[s.a as usize].x >= 0.0
             {
                 let (ua, ub) = (g.uv[s.a as usize], g.uv[s.b as usize]);
@@ -1089,12 +1137,22 @@ mod tests {
         let body_mesh = posed.mesh();
         for (view, yaw) in [("front", 0.0), ("side", 1.5707963), ("back", 3.14159)] {
             let items = [
-                RenderItem { mesh: &body_mesh, shading: Shading::Uniform(BODY_COLOR) },
-                RenderItem { mesh: &g.rest, shading: Shading::Uniform(GARMENT_COLOR) },
+                RenderItem {
+                    mesh: &body_mesh,
+                    shading: Shading::Uniform(BODY_COLOR),
+                },
+                RenderItem {
+                    mesh: &g.rest,
+                    shading: Shading::Uniform(GARMENT_COLOR),
+                },
             ];
             let cam = Camera::framing(Vec3::new(-0.5, -0.4, -0.3), Vec3::new(0.5, 0.5, 0.3), yaw);
             let img = render(&items, &cam, &RenderSettings::default()).unwrap();
-            save_png(std::path::Path::new(&format!("/tmp/fitted_rest_{view}.png")), &img).unwrap();
+            save_png(
+                std::path::Path::new(&format!("/tmp/fitted_rest_{view}.png")),
+                &img,
+            )
+            .unwrap();
         }
     }
 

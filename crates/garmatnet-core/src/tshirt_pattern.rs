@@ -164,8 +164,12 @@ impl ShirtShape {
         // The A-posed arm: the upper arm turned down about the shoulder joint.
         let (sin, cos) = A_POSE_SHOULDER_ANGLE.sin_cos();
         let bone = le - ls;
-        let along = Vec3::new(bone.x * cos + bone.y * sin, -bone.x * sin + bone.y * cos, 0.0)
-            .normalize();
+        let along = Vec3::new(
+            bone.x * cos + bone.y * sin,
+            -bone.x * sin + bone.y * cos,
+            0.0,
+        )
+        .normalize();
         let up = Vec3::new(-along.y, along.x, 0.0);
         let cuff_radius = sleeve_radius - 0.01;
         let cuff_centre = Vec3::new(ls.x, ls.y, zc) + along * (0.8 * bone.norm());
@@ -584,7 +588,11 @@ impl Geometry<'_> {
         let phi = std::f64::consts::PI * round;
         let centre = (top + under) * 0.5;
         let p = centre + (top - under) * (0.5 * phi.cos());
-        Vec3::new(p.x, p.y, smooth_max(torso_depth, half_depth * phi.sin().max(0.0)))
+        Vec3::new(
+            p.x,
+            p.y,
+            smooth_max(torso_depth, half_depth * phi.sin().max(0.0)),
+        )
     }
 
     fn boxy_position(&self, side: usize, (i, j): GridPoint, seam: bool) -> Vec3 {
@@ -604,8 +612,7 @@ impl Geometry<'_> {
         let x_rel = (x_torso / s.a).clamp(-1.0, 1.0);
         let ridge = match &s.fitted {
             None => {
-                s.sleeve_top(sign)
-                    + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel)
+                s.sleeve_top(sign) + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel)
             }
             Some(f) => {
                 let beyond_neck = (x_torso.abs().min(s.a) - s.x_neck).max(0.0);
@@ -680,4 +687,3 @@ impl Geometry<'_> {
         Vec3::new(centre.x, centre.y, z)
     }
 }
-

@@ -1,9 +1,7 @@
 //! The T-shirt template against the real capsule body (the garment's unit tests use a
 //! stand-in body so the two could be developed apart; this pins that they fit together).
 
-use garmatnet_core::{
-    CapsuleBody, Garment, GarmentStyle, Resolution, SignedDistance, SkinnedBody,
-};
+use garmatnet_core::{CapsuleBody, Garment, GarmentStyle, Resolution, SignedDistance, SkinnedBody};
 
 #[test]
 fn every_resolution_sits_outside_the_body_with_ease() -> anyhow::Result<()> {

@@ -380,7 +380,11 @@ mod tests {
                 .dissection
         );
         // The fitted shirt at paper resolution factors cheaper with nested dissection too.
-        assert!(NewtonSystem::new(&tshirt(Resolution::Paper)).unwrap().dissection);
+        assert!(
+            NewtonSystem::new(&tshirt(Resolution::Paper))
+                .unwrap()
+                .dissection
+        );
     }
 
     /// `A x` for the matrix held in `system.values`.
