@@ -1021,11 +1021,6 @@ mod tests {
         let mut pose = g.rest_pose.clone();
         pose.set_joint(16, Vec3::new(0.0, 0.0, -1.3));
         let posed = g.posed_rest_guess(&skeleton.skinning_transforms(&pose));
-        let cuff = g
-            .boundary
-            .iter()
-            .find(|b| b.opening == Opening::LeftCuff)
-            .unwrap();
         // The arm turns 0.5 rad further down about the shoulder: the cuff's centre drops
         // about 5 cm and swings in about 7 cm; the right cuff stays.
         let centre = |x: &[Vec3], opening: Opening| {
@@ -1135,7 +1130,11 @@ mod tests {
         }
         use crate::render::*;
         let body_mesh = posed.mesh();
-        for (view, yaw) in [("front", 0.0), ("side", 1.5707963), ("back", 3.14159)] {
+        for (view, yaw) in [
+            ("front", 0.0),
+            ("side", std::f64::consts::FRAC_PI_2),
+            ("back", std::f64::consts::PI),
+        ] {
             let items = [
                 RenderItem {
                     mesh: &body_mesh,
