@@ -17,6 +17,13 @@ pub const SMPLH_POSE_DIM: usize = 156;
 /// The largest magnitude (radians) [`Pose::validate`] accepts for an axis-angle component.
 pub const MAX_POSE_COMPONENT: Real = 1e3;
 
+/// How far (radians) [`Pose::a_pose`] lowers each upper arm below horizontal: 45°, an
+/// everyday relaxed A-pose.
+pub const A_POSE_SHOULDER_ANGLE: Real = std::f64::consts::FRAC_PI_4;
+
+/// SMPL's left and right shoulder joints (the upper arms' roots).
+const SHOULDER_JOINTS: [usize; 2] = [16, 17];
+
 /// An SMPL pose θ: one axis-angle rotation (radians) per joint, relative to its parent,
 /// in SMPL's joint order; joint 0 is the global root orientation. There is no global
 /// translation: garments are predicted relative to the posed body.
@@ -52,6 +59,29 @@ impl Pose {
         Self {
             axis_angle: [Vec3::zeros(); JOINT_COUNT],
         }
+    }
+
+    /// The everyday A-pose: the T-pose with both upper arms lowered by
+    /// [`A_POSE_SHOULDER_ANGLE`] about the forward (z) axis, the left (+x) shoulder by a
+    /// negative rotation and the right by a positive one. The fitted T-shirt's rest mesh is
+    /// dressed in this pose ([`crate::Garment::rest_pose`]).
+    ///
+    /// ```
+    /// use garmatnet_core::{Pose, Skeleton, Vec3};
+    /// let skeleton = Skeleton::smpl_neutral();
+    /// let joints = skeleton.posed_joints(&Pose::a_pose());
+    /// let (shoulder, elbow) = (joints[16], joints[18]);
+    /// let drop = (shoulder.y - elbow.y).atan2(elbow.x - shoulder.x);
+    /// // 45° turn on a bone that already slopes ~3° down in SMPL's T-pose.
+    /// assert!((40.0..50.0).contains(&drop.to_degrees()));
+    /// ```
+    #[must_use]
+    pub fn a_pose() -> Self {
+        let mut pose = Self::zero();
+        let [left, right] = SHOULDER_JOINTS;
+        pose.set_joint(left, Vec3::new(0.0, 0.0, -A_POSE_SHOULDER_ANGLE));
+        pose.set_joint(right, Vec3::new(0.0, 0.0, A_POSE_SHOULDER_ANGLE));
+        pose
     }
 
     /// A pose from SMPL's 72-vector.

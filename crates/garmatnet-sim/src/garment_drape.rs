@@ -247,12 +247,12 @@ pub fn surface_steps(
 /// let body = CapsuleBody::smpl_neutral();
 /// let garment = Garment::tshirt(Resolution::Default, &body)?;
 /// let material = Material::preset("Denim Heavy")?;
-/// // Hang the shirt on the rest pose once, to equilibrium...
+/// // Hang the shirt on its rest pose (the A-pose it is dressed in) once, to equilibrium...
 /// let mut shirt = FrameStepper::new(
-///     &garment, &body, &material, &DrapeSettings::default(), &Pose::zero(),
+///     &garment, &body, &material, &DrapeSettings::default(), &garment.rest_pose,
 ///     garment.rest.vertices.clone(),
 /// )?;
-/// shirt.step(&Pose::zero())?;
+/// shirt.step(&garment.rest_pose)?;
 /// // ...then follow a motion with 8 Newton iterations a frame.
 /// shirt.set_settings(&DrapeSettings { max_iterations: 8, ..DrapeSettings::default() })?;
 /// for pose in MotionGenerator::new(0, 20).generate() {
@@ -431,8 +431,9 @@ pub struct SequenceResume {
 /// a run resumed from a saved sample ([`SequenceResume`]) continues bit-identically to one
 /// that never stopped.
 ///
-/// Starts from the rest garment on the body in the garment's
-/// [rest pose](Garment::rest_pose) and drapes it there, then walks
+/// Starts from the rest garment on the body in the garment's rest pose
+/// ([`Garment::rest_pose`]: the A-pose for the fitted shirt, the T-pose for the boxy one)
+/// and drapes it there, then walks
 /// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
 /// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every
 /// step from the previous result (carried with the body when `settings.follow_body`) with
@@ -467,6 +468,7 @@ pub fn drape_sequence(
     let mut all = Vec::new();
     let (positions, mut current, first) = match resume {
         None => {
+            // The rest mesh fits the body in the garment's rest pose: the walk starts there.
             let mut positions = garment.rest.vertices.clone();
             all.push(solver.drape(&mut positions, &body.pose(&garment.rest_pose), &[])?);
             (positions, garment.rest_pose.clone(), 0)

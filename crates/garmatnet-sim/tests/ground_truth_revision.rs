@@ -39,7 +39,8 @@ fn fixture(settings: &str) -> PathBuf {
 /// store them.
 fn walk(settings: &SequenceSettings) -> Vec<[f32; 3]> {
     let body = CapsuleBody::smpl_neutral();
-    let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
+    // Revision 2's drapes were made on the boxy shirt (its datasets and the shipped model).
+    let garment = Garment::boxy_tshirt(Resolution::Coarse, &body).unwrap();
     let motion = MotionGenerator::new(0, 200).generate();
     let poses: Vec<_> = extreme_poses(&motion, 20)[..3]
         .iter()
