@@ -122,7 +122,8 @@ fn main() -> Result<()> {
     predictor.predict(&poses[0].1, &fabrics[0].1, args.detail)?;
 
     let body_model = CapsuleBody::smpl_neutral();
-    let template = Garment::tshirt(predictor.model().meta.template.resolution, &body_model)?;
+    let info = &predictor.model().meta.template;
+    let template = Garment::for_template(info.resolution, &info.hash, &body_model)?;
     let settings = RenderSettings::default();
     for (spec, pose) in &poses {
         let pose_name = match spec.parse::<usize>() {

@@ -96,7 +96,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         );
     }
     let body = CapsuleBody::smpl_neutral();
-    let garment = Garment::tshirt(predictor.model().meta.template.resolution, &body)?;
+    let info = &predictor.model().meta.template;
+    let garment = Garment::for_template(info.resolution, &info.hash, &body)?;
     outln!(
         "draping the fabric with the simulator at {} poses (seconds each) ...",
         walk.len()

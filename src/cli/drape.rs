@@ -234,7 +234,8 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     }
     if args.compare {
         let body_model = CapsuleBody::smpl_neutral();
-        let template = Garment::tshirt(predictor.model().meta.template.resolution, &body_model)?;
+        let info = &predictor.model().meta.template;
+        let template = Garment::for_template(info.resolution, &info.hash, &body_model)?;
         let sim = simulate_drape(
             &template,
             &body_model,
@@ -373,7 +374,8 @@ fn compare_sequence(
     garments: &[TriMesh],
     predict_ms: f64,
 ) -> Result<Vec<TriMesh>> {
-    let template = Garment::tshirt(predictor.model().meta.template.resolution, body)?;
+    let info = &predictor.model().meta.template;
+    let template = Garment::for_template(info.resolution, &info.hash, body)?;
     // From the rest drape to the first frame, then frame to frame, as datasets are made: the
     // drapes depend on that path (book/src/solver.md, "The ground truth's noise floor").
     outln!(

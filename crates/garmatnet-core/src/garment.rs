@@ -161,6 +161,35 @@ impl Garment {
         Self::with_style(GarmentStyle::Boxy, resolution, body)
     }
 
+    /// The T-shirt whose [`Garment::template_hash`] is `hash` (16 hex digits, as model files
+    /// and dataset manifests record it) at `resolution`, of whichever [`GarmentStyle`] has it:
+    /// a model or dataset made on the boxy shirt keeps working beside fitted ones.
+    ///
+    /// # Errors
+    /// [`Error::Mismatch`] naming the hashes this build makes at `resolution` if no style has
+    /// `hash` (a template of another version: regenerate or retrain with this one); as
+    /// [`Garment::with_style`].
+    pub fn for_template(
+        resolution: Resolution,
+        hash: &str,
+        body: &(impl PosableBody + ?Sized),
+    ) -> Result<Self> {
+        let mut made = Vec::new();
+        for style in GarmentStyle::ALL {
+            let garment = Self::with_style(style, resolution, body)?;
+            let own = format!("{:016x}", garment.template_hash());
+            if own.eq_ignore_ascii_case(hash.trim()) {
+                return Ok(garment);
+            }
+            made.push(format!("{style} {own}"));
+        }
+        Err(Error::Mismatch {
+            what: format!("T-shirt template at {resolution} resolution"),
+            expected: made.join(" or "),
+            got: hash.to_owned(),
+        })
+    }
+
     /// The procedural T-shirt of `style` for `body`, sized from its skeleton and dressed in
     /// the style's rest pose ([`Garment::rest_pose`]). The fitted cut is pushed out to
     /// [`MIN_BODY_CLEARANCE`] plus 3 mm wherever the posed body comes closer, each half

@@ -57,6 +57,18 @@ impl SampleDeriver {
     pub fn new(resolution: Resolution, smoothing: SmoothingSettings) -> Result<Self> {
         let body = CapsuleBody::smpl_neutral();
         let garment = Garment::tshirt(resolution, &body)?;
+        Self::with_garment(body, garment, smoothing)
+    }
+
+    /// The deriver for `garment` on `body` with `smoothing`.
+    ///
+    /// # Errors
+    /// [`Error::Core`] if the smoother cannot be built.
+    pub fn with_garment(
+        body: CapsuleBody,
+        garment: Garment,
+        smoothing: SmoothingSettings,
+    ) -> Result<Self> {
         let smoother = LaplacianSmoother::new(&garment.rest, smoothing)?;
         Ok(Self {
             body,
@@ -101,7 +113,14 @@ impl SampleDeriver {
             iterations: spec.smoothing.iterations as usize,
             weights,
         };
-        let deriver = Self::new(resolution, smoothing)?;
+        let body = CapsuleBody::smpl_neutral();
+        // The style (fitted or boxy) is the one whose hash the spec records; a hash no style
+        // has is reported below with the fitted shirt's.
+        let garment = match Garment::for_template(resolution, &spec.template.hash, &body) {
+            Ok(garment) => garment,
+            Err(_) => Garment::tshirt(resolution, &body)?,
+        };
+        let deriver = Self::with_garment(body, garment, smoothing)?;
         let hash = format!("{:016x}", deriver.garment.template_hash());
         if deriver.garment.vertex_count() != spec.template.vertex_count
             || hash != spec.template.hash
