@@ -7,6 +7,7 @@
 pub mod anchor;
 pub mod capsule;
 pub mod capsule_body;
+pub mod capsule_union;
 pub mod decompose;
 pub mod error;
 pub mod garment;
@@ -32,6 +33,7 @@ pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use capsule::Capsule;
+pub use capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, SHOULDER_BLEND_REACH};
 pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };

@@ -18,6 +18,7 @@ pub mod error;
 pub mod garment_drape;
 pub mod grid_sheet;
 pub mod manifest;
+pub mod mirror_symmetry;
 pub mod motion;
 mod nested_dissection;
 mod newton_system;
@@ -47,6 +48,7 @@ pub use manifest::{
     SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, revision_label,
     sample_stem,
 };
+pub use mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};
 pub use motion::{
     MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,
     rest_deviation,
