@@ -33,10 +33,10 @@ pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use capsule::Capsule;
-pub use capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, SHOULDER_BLEND_REACH};
 pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };
+pub use capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, SHOULDER_BLEND_REACH};
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
@@ -54,7 +54,9 @@ pub use pose::{JointLimits, MAX_POSE_COMPONENT, POSE_DIM, Pose, SMPLH_POSE_DIM};
 pub use pose_file::{read_pose_frame_rate, read_poses, write_poses_json};
 pub use rng::SplitMix64;
 pub use sdf::{PUSH_SLACK, SignedDistance, SkinnedBody, Sphere, unit_normal};
-pub use skeleton::{JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index};
+pub use skeleton::{
+    JOINT_COUNT, JOINT_NAMES, PARENTS, Skeleton, blend_point, joint_index, mirror_joint,
+};
 pub use smpl_capsules::smpl_neutral_capsules;
 pub use spring::{Spring, SpringKind};
 pub use surface_nets::surface_nets;

@@ -39,8 +39,8 @@ pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
 pub use garment_drape::{
-    FrameStepper, SequenceResume, SequenceSettings, cloth_from_garment, drape_poses,
-    drape_sequence, surface_steps,
+    FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
+    drape_poses, drape_sequence, surface_steps,
 };
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{

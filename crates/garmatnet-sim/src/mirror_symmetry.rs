@@ -50,6 +50,28 @@ impl MirrorMap {
     /// within the tolerance (or shares its twin with another vertex), and how far the nearest
     /// one is; [`CoreError::InvalidArgument`] for an empty template.
     pub fn new(rest: &[Vec3]) -> Result<Self> {
+        Self::with_tolerance(rest, MIRROR_TOLERANCE)
+    }
+
+    /// As [`MirrorMap::new`], pairing within `tolerance` metres: for a template that is
+    /// mirror-symmetric in its topology but not quite in its rest positions (the procedural
+    /// T-shirt on SMPL's skeleton, whose left and right joints differ by up to 6 mm), a
+    /// tolerance below half the grid spacing still finds the twin.
+    ///
+    /// # Errors
+    /// As [`MirrorMap::new`]; [`CoreError::OutOfRange`] for a tolerance that is not finite
+    /// and positive.
+    pub fn with_tolerance(rest: &[Vec3], tolerance: Real) -> Result<Self> {
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(CoreError::OutOfRange {
+                what: "mirror map tolerance (metres)".into(),
+                value: tolerance,
+                min: Real::MIN_POSITIVE,
+                max: Real::INFINITY,
+                hint: format!("; the default is {MIRROR_TOLERANCE}"),
+            }
+            .into());
+        }
         if rest.is_empty() {
             return Err(CoreError::InvalidArgument(
                 "a mirror map needs at least one vertex".into(),
@@ -66,18 +88,18 @@ impl MirrorMap {
         let mut twins = vec![usize::MAX; rest.len()];
         for i in 0..rest.len() {
             let target = mirror_point(&rest[i]);
-            let start = order.partition_point(|&k| rest[k].y < target.y - MIRROR_TOLERANCE);
+            let start = order.partition_point(|&k| rest[k].y < target.y - tolerance);
             let mut best = (Real::INFINITY, usize::MAX);
             for &k in order[start..]
                 .iter()
-                .take_while(|&&k| rest[k].y <= target.y + MIRROR_TOLERANCE)
+                .take_while(|&&k| rest[k].y <= target.y + tolerance)
             {
                 let d = (rest[k] - target).norm();
                 if d < best.0 {
                     best = (d, k);
                 }
             }
-            if best.0 > MIRROR_TOLERANCE {
+            if best.0 > tolerance {
                 // Report how far off the nearest vertex is, wherever it lies.
                 let nearest = rest
                     .iter()
