@@ -7,6 +7,7 @@
 pub mod anchor;
 pub mod capsule;
 pub mod capsule_body;
+pub mod capsule_union;
 pub mod decompose;
 pub mod error;
 pub mod garment;
@@ -37,6 +38,7 @@ pub use capsule::Capsule;
 pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };
+pub use capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, SHOULDER_BLEND_REACH};
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
@@ -60,6 +62,7 @@ pub use rng::SplitMix64;
 pub use sdf::{PUSH_SLACK, SignedDistance, SkinnedBody, Sphere, unit_normal};
 pub use skeleton::{
     JOINT_COUNT, JOINT_NAMES, MIRRORED_JOINTS, PARENTS, Skeleton, blend_point, joint_index,
+    mirror_joint,
 };
 pub use smpl_capsules::smpl_neutral_capsules;
 pub use spring::{Spring, SpringKind};

@@ -20,7 +20,9 @@ use serde::{Deserialize, Serialize};
 use crate::drape_settings::DrapeSettings;
 use crate::drape_solver::{DrapeSolver, DrapeStats};
 use crate::error::Result;
-use crate::garment_drape::{FrameStepper, SequenceSettings, cloth_from_garment, surface_steps};
+use crate::garment_drape::{
+    FrameStepper, SequenceSettings, cloth_from_garment, settle_at_rest, surface_steps,
+};
 
 /// How a dataset's samples are draped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -127,7 +129,8 @@ impl CanonicalDraper {
         let mut solver = DrapeSolver::new(&model, &settings.drape)?;
         let rest_pose = garment.rest_pose.clone();
         let mut rest_drape = garment.rest.vertices.clone();
-        let rest_stats = solver.drape(&mut rest_drape, &body.pose(&rest_pose), &[])?;
+        let rest_stats =
+            settle_at_rest(&mut solver, &settings.drape, &mut rest_drape, body, &rest_pose)?;
         round_to_f32(&mut rest_drape);
         Ok(Self {
             solver,

@@ -1,5 +1,7 @@
 //! The simulation crate's error type: every variant says what went wrong and what to fix.
 
+use garmatnet_core::Real;
+
 /// Everything that can go wrong in `garmatnet-sim`.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -54,6 +56,20 @@ pub enum Error {
         index: u64,
         /// How many poses were drawn and refused.
         attempts: usize,
+    },
+    /// A template has no left-right mirror map: the mirror image (x negated) of `vertex`'s
+    /// rest position has no vertex of its own within [`crate::MIRROR_TOLERANCE`] (or shares
+    /// its twin with another vertex, `nearest_twin_m` then 0). Mirror asymmetry is defined
+    /// only for templates built mirror-symmetric about the body's sagittal plane `x = 0`.
+    #[error(
+        "the template is not mirror-symmetric about x = 0: vertex {vertex}'s mirror image is \
+         {nearest_twin_m} m from the nearest vertex (or shares its twin)"
+    )]
+    NotMirrorSymmetric {
+        /// The first vertex without a twin.
+        vertex: usize,
+        /// How far (metres) the nearest vertex lies from its mirror image.
+        nearest_twin_m: Real,
     },
     /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
     /// Finished samples are on disk; run the same command again to resume.

@@ -21,6 +21,7 @@ pub mod everyday_poses;
 pub mod garment_drape;
 pub mod grid_sheet;
 pub mod manifest;
+pub mod mirror_symmetry;
 pub mod motion;
 mod nested_dissection;
 mod newton_system;
@@ -48,8 +49,9 @@ pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
 pub use everyday_poses::{EverydayPose, everyday_pose, everyday_pose_names, everyday_poses};
 pub use garment_drape::{
-    FrameStepper, SequenceResume, SequenceSettings, cloth_from_garment, drape_poses,
-    drape_sequence, surface_steps,
+    FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
+    settle_at_rest,
+    drape_poses, drape_sequence, surface_steps,
 };
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
@@ -57,6 +59,7 @@ pub use manifest::{
     SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, revision_label,
     sample_stem,
 };
+pub use mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};
 pub use motion::{
     MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,
     rest_deviation,
