@@ -205,7 +205,18 @@ impl Garment {
         resolution: Resolution,
         body: &(impl PosableBody + ?Sized),
     ) -> Result<Self> {
-        let pattern = TshirtPattern::build(body.skeleton(), resolution.grid_spacing(), style)?;
+        // The boxy shirt of earlier versions was cut from SMPL's measured joints, before the
+        // neutral skeleton was made mirror-symmetric: it keeps that cut (and its template
+        // hash, which the shipped model records) on the neutral body.
+        let measured = crate::skeleton::Skeleton::smpl_neutral_measured();
+        let cut_from = if style == GarmentStyle::Boxy
+            && *body.skeleton() == crate::skeleton::Skeleton::smpl_neutral()
+        {
+            &measured
+        } else {
+            body.skeleton()
+        };
+        let pattern = TshirtPattern::build(cut_from, resolution.grid_spacing(), style)?;
         let rest_pose = match style {
             GarmentStyle::Fitted => Pose::a_pose(),
             GarmentStyle::Boxy => Pose::zero(),

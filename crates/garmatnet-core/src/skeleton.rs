@@ -157,6 +157,16 @@ impl Skeleton {
         }
     }
 
+    /// SMPL's mean neutral joints as measured, before [`Skeleton::smpl_neutral`] makes them
+    /// mirror-symmetric. The boxy T-shirt ([`crate::GarmentStyle::Boxy`]) is cut from them,
+    /// so its template (and the shipped model trained on it) is the one of earlier versions.
+    #[must_use]
+    pub fn smpl_neutral_measured() -> Self {
+        Self {
+            rest_joints: SMPL_NEUTRAL_JOINTS.map(|[x, y, z]| Vec3::new(x, y, z)),
+        }
+    }
+
     /// A skeleton with custom rest joints (world positions in the rest pose, metres).
     #[must_use]
     pub fn with_rest_joints(rest_joints: [Vec3; JOINT_COUNT]) -> Self {
