@@ -10,9 +10,9 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest, MotionGenerator,
-    MotionPace, PoseSampler, PoseSamplerConfig, SequenceSettings, Shard, canonical_settings, everyday_poses,
-    generate_dataset, manifest_path,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest,
+    MotionGenerator, MotionPace, PoseSampler, PoseSamplerConfig, SequenceSettings, Shard,
+    canonical_settings, everyday_poses, generate_dataset, manifest_path,
 };
 use garmatnet::train::Progress;
 

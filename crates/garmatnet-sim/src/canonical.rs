@@ -129,8 +129,13 @@ impl CanonicalDraper {
         let mut solver = DrapeSolver::new(&model, &settings.drape)?;
         let rest_pose = garment.rest_pose.clone();
         let mut rest_drape = garment.rest.vertices.clone();
-        let rest_stats =
-            settle_at_rest(&mut solver, &settings.drape, &mut rest_drape, body, &rest_pose)?;
+        let rest_stats = settle_at_rest(
+            &mut solver,
+            &settings.drape,
+            &mut rest_drape,
+            body,
+            &rest_pose,
+        )?;
         round_to_f32(&mut rest_drape);
         Ok(Self {
             solver,
@@ -277,7 +282,10 @@ mod tests {
         let target = raised_arm();
         let path = draper.path(&target).unwrap();
         assert_eq!(path.last(), Some(&target));
-        assert!(path.len() > 1, "0.35 rad of shoulder moves a sleeve by more than a step");
+        assert!(
+            path.len() > 1,
+            "0.35 rad of shoulder moves a sleeve by more than a step"
+        );
         assert!(draper.path(&garment.rest_pose).unwrap().len() == 1);
         let mut nan = Pose::zero();
         nan.set_joint(3, Vec3::new(f64::NAN, 0.0, 0.0));

@@ -6,8 +6,8 @@
 //! relative to the moving body.
 
 pub mod arm_clearance;
-pub mod canonical;
 pub mod arm_placement;
+pub mod canonical;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -32,10 +32,8 @@ pub mod self_intersection;
 pub mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
-pub use canonical::{
-    CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings,
-};
 pub use arm_placement::{ArmPlacement, Side};
+pub use canonical::{CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
@@ -50,8 +48,7 @@ pub use error::{Error, Result};
 pub use everyday_poses::{EverydayPose, everyday_pose, everyday_pose_names, everyday_poses};
 pub use garment_drape::{
     FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
-    settle_at_rest,
-    drape_poses, drape_sequence, surface_steps,
+    drape_poses, drape_sequence, settle_at_rest, surface_steps,
 };
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{

@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use garmatnet_core::{Material, Resolution, SmoothingSettings};
 use garmatnet_sim::{
-    DrapeProtocol, DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport, MotionGenerator,
-    SequenceSettings, Shard, check, generate_dataset, merge_shards,
+    DrapeProtocol, DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport,
+    MotionGenerator, SequenceSettings, Shard, check, generate_dataset, merge_shards,
 };
 
 fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
@@ -228,14 +228,26 @@ fn canonical_drapes_do_not_depend_on_dataset_order_shard_or_threads() -> anyhow:
     };
     let a = tmp.path().join("a");
     let report = generate_dataset(
-        &canonical(&a, &[0, 1, 2], &["Cotton Poplin", "Denim Heavy"], 1, Shard::new(0, 1)?),
+        &canonical(
+            &a,
+            &[0, 1, 2],
+            &["Cotton Poplin", "Denim Heavy"],
+            1,
+            Shard::new(0, 1)?,
+        ),
         &|_| {},
         &|| false,
     )?;
     assert_eq!(report.written, 6);
     let b = tmp.path().join("b");
     generate_dataset(
-        &canonical(&b, &[2, 0], &["Silk Chiffon", "Denim Heavy"], 2, Shard::new(1, 2)?),
+        &canonical(
+            &b,
+            &[2, 0],
+            &["Silk Chiffon", "Denim Heavy"],
+            2,
+            Shard::new(1, 2)?,
+        ),
         &|_| {},
         &|| false,
     )?;

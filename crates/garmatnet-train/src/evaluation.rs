@@ -20,8 +20,8 @@ use crate::prediction_errors::{
     predict_garmatnet, vertex_errors,
 };
 use crate::report::{
-    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, ModelSizes, NearestTraining, PenetrationStats,
-    Report, SampleErrors, TestParts, Timing,
+    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, ModelSizes, NearestTraining,
+    PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 use crate::split::Split;
 
@@ -314,7 +314,11 @@ fn held_out_set(
         .spec()
         .materials
         .iter()
-        .map(|m| training.iter().any(|t| t.name == m.name && t.omega == m.omega_normalized))
+        .map(|m| {
+            training
+                .iter()
+                .any(|t| t.name == m.name && t.omega == m.omega_normalized)
+        })
         .collect();
     let mut errors = Vec::new();
     for keys in set.keys().chunks(64) {
@@ -324,8 +328,11 @@ fn held_out_set(
         }
     }
     let part = |want: bool| {
-        let chosen: Vec<&VertexErrors> =
-            errors.iter().filter(|(s, _)| *s == want).map(|(_, e)| e).collect();
+        let chosen: Vec<&VertexErrors> = errors
+            .iter()
+            .filter(|(s, _)| *s == want)
+            .map(|(_, e)| e)
+            .collect();
         (!chosen.is_empty()).then(|| error_stats(chosen.into_iter()))
     };
     Ok(HeldOutSet {

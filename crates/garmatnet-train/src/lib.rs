@@ -66,8 +66,7 @@ pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{
     ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
-    NearestTraining,
-    PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
+    NearestTraining, PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,

@@ -353,8 +353,7 @@ impl Report {
                 (", training fabrics", set.training_fabrics.as_ref()),
                 (", unseen fabrics", set.unseen_fabrics.as_ref()),
             ] {
-                if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples)
-                {
+                if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples) {
                     error_row(&mut s, &format!("GarMatNet, {}{part}", set.name), e);
                 }
             }
