@@ -108,7 +108,7 @@ pub fn everyday_poses() -> Vec<EverydayPose> {
         p.set_joint(7, Vec3::new(0.1, 0.0, 0.0));
         p.set_joint(8, Vec3::new(-0.3, 0.0, 0.0));
         arm(-72.0, -25.0, 0.0, 0.3).apply(p, Side::Left);
-        arm(-72.0, 35.0, 0.0, 0.5).apply(p, Side::Right);
+        arm(-68.0, 35.0, 0.0, 0.5).apply(p, Side::Right);
         spine(p, 0.05, -0.1, 0.0);
     });
     add("torso-bent-forward", true, &|p| {
