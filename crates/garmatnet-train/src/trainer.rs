@@ -865,9 +865,11 @@ pub(crate) mod tests {
         synthetic_dataset(&data, 6, 20);
         let norm = |weight_decay: f64| {
             let path = dir.path().join(format!("wd{weight_decay}.safetensors"));
+            // 40 epochs: on the fitted shirt's toy data, 25 left the decayed run's dev loss
+            // at 0.51 of the untrained one, a hair above the bar.
             let config = TrainConfig {
                 weight_decay,
-                ..tiny_config(25)
+                ..tiny_config(40)
             };
             let s = train(&data, &path, &config, &RunOptions::default()).unwrap();
             eprintln!(
