@@ -966,21 +966,29 @@ mod tests {
         }
     }
 
+    /// The neck opening's boundary loop.
+    fn neck_loop(g: &Garment) -> &BoundaryLoop {
+        g.boundary
+            .iter()
+            .find(|b| b.opening == Opening::Neck)
+            .unwrap()
+    }
+
+    /// Each neck-loop vertex's distance to `posed` (metres).
+    fn neck_gaps(g: &Garment, posed: &impl SignedDistance) -> Vec<Real> {
+        neck_loop(g)
+            .vertices
+            .iter()
+            .map(|&i| posed.distance(&g.rest.vertices[i as usize]))
+            .collect()
+    }
+
     #[test]
     fn neckline_hugs_the_neck() {
         for r in Resolution::ALL {
             let g = shirt(r);
             let posed = body().pose(&g.rest_pose);
-            let neck = &g
-                .boundary
-                .iter()
-                .find(|b| b.opening == Opening::Neck)
-                .unwrap();
-            let gaps: Vec<Real> = neck
-                .vertices
-                .iter()
-                .map(|&i| posed.distance(&g.rest.vertices[i as usize]))
-                .collect();
+            let gaps = neck_gaps(g, &posed);
             let max = gaps.iter().copied().fold(0.0, Real::max);
             let mean = gaps.iter().sum::<Real>() / gaps.len() as Real;
             assert!(
@@ -1101,16 +1109,8 @@ mod tests {
                 .map(|s| s.rest_length / r.grid_spacing())
                 .collect();
             ratio.sort_by(Real::total_cmp);
-            let neck = g
-                .boundary
-                .iter()
-                .find(|b| b.opening == Opening::Neck)
-                .unwrap();
-            let gaps: Vec<Real> = neck
-                .vertices
-                .iter()
-                .map(|&i| posed.distance(&g.rest.vertices[i as usize]))
-                .collect();
+            let neck = neck_loop(g);
+            let gaps = neck_gaps(g, &posed);
             println!(
                 "neck gap mean {:.1} max {:.1} mm, neck loop length {:.3} m",
                 gaps.iter().sum::<Real>() / gaps.len() as Real * 1e3,
