@@ -58,9 +58,9 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "independent")]
     pub motion: MotionKind,
     /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
-    /// torso, so no cloth is pinched (and torn) between them; 0 turns the check off, as
-    /// datasets made before it existed (resume those with `--arm-clearance 0`). Independent
-    /// poses keep every arm 1 cm off every other body part instead.
+    /// torso; 0 turns the check off, as datasets made before it existed (resume those with
+    /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
+    /// part instead (the body leaves the cloth a channel where parts press together).
     #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
     pub arm_clearance: f64,
     /// How each sample is draped: `canonical` (default; ground-truth revision 3: each sample

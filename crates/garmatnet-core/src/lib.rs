@@ -38,7 +38,9 @@ pub use capsule::Capsule;
 pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };
-pub use capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, SHOULDER_BLEND_REACH};
+pub use capsule_union::{
+    DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, PINCH_HALF_WIDTH, SHOULDER_BLEND_REACH,
+};
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
 pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};

@@ -1,10 +1,12 @@
 //! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body,
 //! written as a resumable, shardable dataset ([`crate::dataset`]).
 //!
-//! Materials run in parallel (rayon). Under the [canonical protocol](DrapeProtocol::Canonical)
-//! (revision 3, the default of `garmatnet simulate`) each sample is draped on its own from its
-//! material's rest drape ([`CanonicalDraper`]), the poses of a material spread over the
-//! workers too, and a resumed run drapes exactly the samples not on disk. Under the
+//! Under the [canonical protocol](DrapeProtocol::Canonical) (revision 3, the default of
+//! `garmatnet simulate`) each sample is draped on its own from its material's rest drape
+//! ([`CanonicalDraper`]); the workers take samples pose-major (every material's first pose,
+//! then every material's second, ...), so an interrupted run leaves a smaller dataset whose
+//! materials share a prefix of the poses, and a resumed run drapes exactly the samples not
+//! on disk. Materials run in parallel (rayon). Under the
 //! [walk](DrapeProtocol::Walk) each material walks the whole pose sequence in order, every
 //! pose warm-started from the previous one ([`drape_sequence`]); a material whose first `k`
 //! poses are on disk resumes from pose `k - 1`'s saved garment. Both round their state to the
@@ -406,64 +408,41 @@ pub fn generate_dataset(
         Ok((written, failed, time))
     };
 
-    // Every unfinished sample of material `m`, each on its own from the material's rest
-    // drape (made once), its poses spread over the workers. A sample's recorded cost is its
-    // own path and converge plus an equal share of the rest drape.
-    let canonical_material = |m: usize| -> Result<(usize, usize, f64)> {
-        let todo: Vec<usize> = (0..config.poses.len())
-            .filter(|&p| !writer.is_done(m, p))
-            .collect();
-        if todo.is_empty() {
-            return Ok((0, 0, 0.0));
-        }
-        if should_stop() {
-            return Err(Error::Interrupted);
-        }
-        let started = Instant::now();
-        let draper = CanonicalDraper::new(garment, body, &config.materials[m].1, &config.sequence)?;
-        let rest_share_ms = started.elapsed().as_secs_f64() * 1e3 / todo.len() as f64;
-        let done: Vec<Result<(bool, f64)>> = todo
-            .par_iter()
-            .with_max_len(1)
-            .map(|&p| {
-                if should_stop() {
-                    return Err(Error::Interrupted);
-                }
-                let started = Instant::now();
-                let (x, stats) = draper.drape(&config.poses[p])?;
-                let sample_ms = started.elapsed().as_secs_f64() * 1e3 + rest_share_ms;
-                record(m, p, &x, &stats, sample_ms)?;
-                Ok((stats.converged, sample_ms))
-            })
-            .collect();
-        let (mut written, mut failed, mut time) = (0, 0, 0.0);
-        for d in done {
-            let (converged, ms) = d?;
-            written += 1;
-            failed += usize::from(!converged);
-            time += ms;
-        }
-        Ok((written, failed, time))
-    };
-    let run_material = |m: usize| match config.protocol {
-        DrapeProtocol::Walk => walk_material(m),
-        DrapeProtocol::Canonical => canonical_material(m),
-    };
-
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(config.threads)
         .build()
         .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
-    // One material per task: rayon may otherwise hand a worker a run of several
-    // materials to walk sequentially while the other workers sit idle at the end
-    // (seen: the last two materials of a 30-material run on one worker of two).
-    let results: Vec<Result<(usize, usize, f64)>> = pool.install(|| {
-        materials
-            .par_iter()
-            .with_max_len(1)
-            .map(|&m| run_material(m))
-            .collect()
-    });
+    let results: Vec<Result<(usize, usize, f64)>> = match config.protocol {
+        // One material per task: rayon may otherwise hand a worker a run of several
+        // materials to walk sequentially while the other workers sit idle at the end
+        // (seen: the last two materials of a 30-material run on one worker of two).
+        DrapeProtocol::Walk => pool.install(|| {
+            materials
+                .par_iter()
+                .with_max_len(1)
+                .map(|&m| walk_material(m))
+                .collect()
+        }),
+        DrapeProtocol::Canonical => {
+            let drape = |m: usize, p: usize, draper: &CanonicalDraper| {
+                let started = Instant::now();
+                let (x, stats) = draper.drape(&config.poses[p])?;
+                let sample_ms = started.elapsed().as_secs_f64() * 1e3;
+                record(m, p, &x, &stats, sample_ms)?;
+                Ok((stats.converged, sample_ms))
+            };
+            vec![canonical_samples(
+                &pool,
+                config,
+                garment,
+                body,
+                &materials,
+                &|m, p| writer.is_done(m, p),
+                &drape,
+                should_stop,
+            )]
+        }
+    };
     writer.flush()?;
     let mut report = GenerateReport {
         imported,
@@ -495,4 +474,99 @@ pub fn generate_dataset(
     };
     report.wall_time_s = started.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// Drapes every unfinished canonical sample of `materials`, pose-major: all materials' first
+/// pose, then their second, and so on, handed out one at a time from a shared queue, so an
+/// interrupted run leaves every material with the same prefix of poses (a smaller dataset
+/// that can already be trained on) rather than some materials finished and others not
+/// begun. A material's rest drape ([`CanonicalDraper::new`]) is made once, by the first
+/// worker that needs it; its cost is shared equally among the material's samples in the
+/// returned time. Returns (written, not converged, summed sample milliseconds).
+#[allow(clippy::too_many_arguments)]
+fn canonical_samples(
+    pool: &rayon::ThreadPool,
+    config: &GenerateConfig,
+    garment: &Garment,
+    body: &CapsuleBody,
+    materials: &[usize],
+    is_done: &(dyn Fn(usize, usize) -> bool + Sync),
+    drape: &(dyn Fn(usize, usize, &CanonicalDraper) -> Result<(bool, f64)> + Sync),
+    should_stop: &(dyn Fn() -> bool + Sync),
+) -> Result<(usize, usize, f64)> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::{Mutex, OnceLock};
+
+    let todo: Vec<(usize, usize)> = (0..config.poses.len())
+        .flat_map(|p| materials.iter().map(move |&m| (m, p)))
+        .filter(|&(m, p)| !is_done(m, p))
+        .collect();
+    let per_material: Vec<usize> = (0..config.materials.len())
+        .map(|m| todo.iter().filter(|t| t.0 == m).count())
+        .collect();
+    // The rest drape and its cost (ms) of each material, made on first use (`None` when it
+    // failed: its error is the run's).
+    let drapers: Vec<OnceLock<Option<(CanonicalDraper, f64)>>> =
+        (0..config.materials.len()).map(|_| OnceLock::new()).collect();
+    let next = AtomicUsize::new(0);
+    let totals = Mutex::new((0usize, 0usize, 0.0f64));
+    let first_error: Mutex<Option<Error>> = Mutex::new(None);
+    let fail = |e: Error| {
+        first_error
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .get_or_insert(e);
+        // Stop handing out work: the run reports its first error.
+        next.store(todo.len(), Ordering::Relaxed);
+    };
+    let worker = || {
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            let Some(&(m, p)) = todo.get(i) else { return };
+            if should_stop() {
+                fail(Error::Interrupted);
+                return;
+            }
+            let made = drapers[m].get_or_init(|| {
+                let started = Instant::now();
+                match CanonicalDraper::new(garment, body, &config.materials[m].1, &config.sequence)
+                {
+                    Ok(d) => Some((d, started.elapsed().as_secs_f64() * 1e3)),
+                    Err(e) => {
+                        fail(e);
+                        None
+                    }
+                }
+            });
+            let Some((draper, rest_ms)) = made else { return };
+            let result = drape(m, p, draper)
+                .map(|(converged, ms)| (converged, ms + rest_ms / per_material[m] as f64));
+            match result {
+                Ok((converged, ms)) => {
+                    let mut t = totals.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    t.0 += 1;
+                    t.1 += usize::from(!converged);
+                    t.2 += ms;
+                }
+                Err(e) => {
+                    fail(e);
+                    return;
+                }
+            }
+        }
+    };
+    pool.scope(|s| {
+        for _ in 0..pool.current_num_threads() {
+            s.spawn(|_| worker());
+        }
+    });
+    if let Some(e) = first_error
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+    {
+        return Err(e);
+    }
+    Ok(totals
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner))
 }

@@ -8,8 +8,8 @@
 //! - **arms** ([`ArmPlacement`]): the upper arm's direction in the chest's frame (elevation
 //!   above the horizontal and azimuth from the side toward the front), its twist about
 //!   itself and the elbow's bend; the collar follows (shrugs as the arm rises, leans forward
-//!   as it reaches). Each arm hangs at the side (elevation −88° … −60°; the neutral body's torso lets them down to about −73° with the
-//!   1 cm gap), lies in between
+//!   as it reaches). Each arm hangs at the side (elevation −88° … −60°; below about −75° the upper arm presses
+//!   into the ribs, which the body allows up to 3 cm), lies in between
 //!   (−60° … 45°, in front of the body to somewhat behind it) or is raised (45° … 85°), with
 //!   the probabilities of [`PoseSamplerConfig`];
 //! - **torso**: a bend forward or back, a twist and a side bend, each spread evenly over
@@ -49,7 +49,8 @@ pub struct PoseSamplerConfig {
     /// Seed: the same seed and settings give bit-identical poses.
     pub seed: u64,
     /// Smallest gap (metres) kept between an arm and any other body part
-    /// ([`SelfIntersection`]; default [`DEFAULT_ARM_GAP`], 1 cm).
+    /// ([`SelfIntersection`]; default [`DEFAULT_ARM_GAP`], -3 cm: an arm may press 3 cm into
+    /// another part).
     pub arm_gap_m: Real,
     /// Fraction ∈ [0, 1] of arms drawn hanging at the side, elevation −88° … −60° (default
     /// [`DEFAULT_HANGING_FRACTION`]). Hanging arms that would touch the torso are redrawn, so
@@ -111,7 +112,7 @@ impl PoseSampler {
     ///
     /// # Errors
     /// [`garmatnet_core::Error::OutOfRange`] for fractions outside [0, 1] or summing past 1,
-    /// `max_attempts` of 0, an arm gap outside 0 … 0.05 m, or limits without 24 joints or
+    /// `max_attempts` of 0, an arm gap outside -0.05 … 0.05 m, or limits without 24 joints or
     /// with a lower bound above its upper bound.
     pub fn with_body(config: PoseSamplerConfig, body: CapsuleBody) -> Result<Self> {
         let out_of_range = |what: &str, value: Real, min: Real, max: Real| {
