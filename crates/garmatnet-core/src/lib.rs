@@ -43,7 +43,9 @@ pub use capsule_union::{
 };
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};
-pub use garment::{BoundaryLoop, Garment, MIN_BODY_CLEARANCE, Opening, Resolution};
+pub use garment::{
+    BoundaryLoop, FITTED_MIN_REST_FRACTION, Garment, MIN_BODY_CLEARANCE, Opening, Resolution,
+};
 pub use garment_style::GarmentStyle;
 pub use gltf::{GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation};
 pub use io::{OutputLock, read_obj, write_atomic, write_bytes_atomic, write_obj, write_ply};
