@@ -63,13 +63,15 @@
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 
-#[cfg(doctest)]
+#[cfg(all(doctest, feature = "train"))]
 #[doc = include_str!("../book/src/api.md")]
 pub struct BookApiDoctests;
 
 pub use garmatnet_core as core;
 pub use garmatnet_model as model;
+#[cfg(feature = "sim")]
 pub use garmatnet_sim as sim;
+#[cfg(feature = "train")]
 pub use garmatnet_train as train;
 
 pub use garmatnet_core::{
@@ -79,7 +81,9 @@ pub use garmatnet_core::{
 pub use garmatnet_model::{
     Detail, GarMatNetConfig, GarMatNetModel, GarmentMesh, Predictor, PushOut, Scene, select_device,
 };
+#[cfg(feature = "sim")]
 pub use garmatnet_sim::{
     DrapeSettings, DrapeSolver, FrameStepper, GenerateConfig, generate_dataset,
 };
+#[cfg(feature = "train")]
 pub use garmatnet_train::{EvalConfig, TrainConfig, evaluate, train};

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::core::{
-    Error as CoreError, MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64,
-    find_preset, presets, read_poses,
+    MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64, find_preset, presets,
+    read_poses,
 };
 use garmatnet::sim::{
     ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest,
@@ -281,8 +281,13 @@ pub fn mixed_materials(
 
 /// Whether `e` is the refusal to resume a dataset whose pose list differs.
 fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
-    matches!(e, garmatnet::sim::Error::Core(CoreError::Mismatch { what, .. })
-        if what.starts_with("existing dataset's poses"))
+    matches!(
+        e,
+        garmatnet::sim::Error::SpecMismatch {
+            field: garmatnet::sim::SpecField::Poses,
+            ..
+        }
+    )
 }
 
 /// The most frames `--poses N` generates: at about 5 s a drape (default resolution, one

@@ -399,7 +399,10 @@ mod tests {
                 continue;
             }
             let d = body.distance(&p);
-            assert!(d >= PINCH_HALF_WIDTH - 1e-3, "{p:?}: {d} inside the channel");
+            assert!(
+                d >= PINCH_HALF_WIDTH - 1e-3,
+                "{p:?}: {d} inside the channel"
+            );
             assert!(fused.distance(&p) < 0.0, "{p:?} was inside the fused body");
             channel += 1;
             deepest = deepest.max(-a.max(t));

@@ -19,10 +19,10 @@ use crate::garment_style::GarmentStyle;
 use crate::math::{Iso3, Mat3, Real, Vec3};
 use crate::mesh::TriMesh;
 use crate::posable_body::PosableBody;
-use crate::spring::SpringKind;
 use crate::pose::Pose;
 use crate::sdf::{SignedDistance, SkinnedBody};
 use crate::skeleton::JOINT_COUNT;
+use crate::spring::SpringKind;
 use crate::spring::{Spring, provot_springs};
 use crate::tshirt_pattern::{Panel, TshirtPattern};
 
@@ -628,7 +628,6 @@ mod tests {
     use crate::capsule_body::CapsuleBody;
     use crate::pose::Pose;
     use crate::skeleton::Skeleton;
-    use crate::spring::{Spring, SpringKind};
     use approx::assert_relative_eq;
     use std::collections::HashSet;
     use std::sync::OnceLock;
@@ -781,10 +780,7 @@ mod tests {
                     SpringKind::Shear => h * std::f64::consts::SQRT_2,
                     _ => 2.0 * h,
                 };
-                assert_relative_eq!(
-                    s.rest_length,
-                    d.max(FITTED_MIN_REST_FRACTION * pattern)
-                );
+                assert_relative_eq!(s.rest_length, d.max(FITTED_MIN_REST_FRACTION * pattern));
                 floored += usize::from(s.rest_length > d);
             }
             // The floor lengthens the springs the sleeve's loft compressed, not the shirt.

@@ -14,6 +14,7 @@ pub mod garment;
 pub mod garment_style;
 pub mod gltf;
 pub mod io;
+mod joints;
 pub mod laplacian;
 pub mod material;
 pub mod material_bounds;

@@ -59,10 +59,9 @@ pub use garmatnet_net::{
 pub use material_range::{FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric};
 pub use model_file::{
     FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
+    template_hash_hex,
 };
 pub use output_normalizer::{MIN_STD, OutputNormalizer};
-pub use predictor::{
-    Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions, template_hash_hex,
-};
+pub use predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions};
 pub use push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};
 pub use scene::{Character, CharacterOutput, Scene, SceneUpdate};

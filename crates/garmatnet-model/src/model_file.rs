@@ -195,7 +195,7 @@ impl TemplateInfo {
     #[must_use]
     pub fn of(garment: &garmatnet_core::Garment) -> Self {
         Self {
-            hash: crate::predictor::template_hash_hex(garment),
+            hash: template_hash_hex(garment),
             resolution: garment.resolution,
             vertex_count: garment.vertex_count(),
         }
@@ -507,6 +507,12 @@ fn stored_checksum(document: &str, tensors: &[Stored]) -> u64 {
             .iter()
             .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
     )
+}
+
+/// The hex form of a garment's template hash, as model files and dataset manifests store it.
+#[must_use]
+pub fn template_hash_hex(garment: &Garment) -> String {
+    format!("{:016x}", garment.template_hash())
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use garmatnet_core::{
 use crate::error::{Error, Result};
 use crate::garmatnet_net::MATERIAL_DIM;
 use crate::material_range::{MaterialRange, TrainingFabric, nearest};
-use crate::model_file::GarMatNetModel;
+use crate::model_file::{GarMatNetModel, template_hash_hex};
 use crate::push_out::{PushOut, PushOutReport, push_out};
 use crate::tensor_util::{matrix, to_f32};
 use garmatnet_core::error::ensure_finite;
@@ -155,12 +155,6 @@ pub struct Predictor {
     id: u64,
     /// [`GarMatNetModel::weights_fingerprint`], computed on first use.
     fingerprint: OnceLock<String>,
-}
-
-/// The hex form of a garment's template hash, as model files and dataset manifests store it.
-#[must_use]
-pub fn template_hash_hex(garment: &Garment) -> String {
-    format!("{:016x}", garment.template_hash())
 }
 
 impl Predictor {

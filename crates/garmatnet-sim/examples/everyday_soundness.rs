@@ -14,7 +14,9 @@
 use std::time::Instant;
 
 use garmatnet_core::{CapsuleBody, Garment, Real, Resolution, presets};
-use garmatnet_sim::{CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses};
+use garmatnet_sim::{
+    CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses,
+};
 use rayon::prelude::*;
 
 /// The comma-separated, lower-cased filter in environment variable `name` (empty: all).
@@ -129,27 +131,14 @@ fn main() -> anyhow::Result<()> {
                     let t = Instant::now();
                     let (x, stats) = draper.drape(&p.pose)?;
                     if let Ok(dir) = std::env::var("RENDER") {
-                        render_drape(std::path::Path::new(&dir), &garment, &body, p, preset.name, &x)?;
-                    }
-                    if std::env::var("WHERE").is_ok() {
-                        let worst = garment
-                            .springs
-                            .iter()
-                            .max_by(|a, b| {
-                                let r = |s: &garmatnet_core::Spring| {
-                                    (x[s.a as usize] - x[s.b as usize]).norm() / s.rest_length
-                                };
-                                r(a).total_cmp(&r(b))
-                            })
-                            .map(|s| (s.kind, s.a, s.b, s.rest_length, (x[s.a as usize] - x[s.b as usize]).norm(), garment.rest.vertices[s.a as usize], garment.rest.vertices[s.b as usize]));
-                        eprintln!("{} {}: worst spring {worst:?}", p.name, preset.name);
-                        let over: Vec<(String, Real, Real)> = garment
-                            .springs
-                            .iter()
-                            .map(|s| (format!("{:?}", s.kind), s.rest_length, (x[s.a as usize] - x[s.b as usize]).norm() / s.rest_length - 1.0))
-                            .filter(|t| t.2 > 0.5)
-                            .collect();
-                        eprintln!("  {} springs past 0.5: {:?}", over.len(), over.iter().map(|t| format!("{} {:.1}mm {:.2}", t.0, t.1 * 1e3, t.2)).collect::<Vec<_>>());
+                        render_drape(
+                            std::path::Path::new(&dir),
+                            &garment,
+                            &body,
+                            p,
+                            preset.name,
+                            &x,
+                        )?;
                     }
                     Ok(Row {
                         pose: p.name,
@@ -187,11 +176,14 @@ fn main() -> anyhow::Result<()> {
             if r.nan { "yes" } else { "no" },
             r.converged,
             r.iterations,
-            r.asymmetry.map_or("-".into(), |a| format!("{:.1}", a * 1e3)),
+            r.asymmetry
+                .map_or("-".into(), |a| format!("{:.1}", a * 1e3)),
             r.seconds
         );
     }
-    println!("\n| pose | presets | past {SOUND_STRETCH} | worst stretch | worst penetration (mm) | NaN | not converged | worst asym. (mm) | mean time (s) |");
+    println!(
+        "\n| pose | presets | past {SOUND_STRETCH} | worst stretch | worst penetration (mm) | NaN | not converged | worst asym. (mm) | mean time (s) |"
+    );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for p in &poses {
         let of: Vec<&Row> = rows.iter().filter(|r| r.pose == p.name).collect();

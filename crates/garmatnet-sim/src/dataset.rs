@@ -43,6 +43,7 @@ use std::time::{Duration, Instant};
 
 use garmatnet_core::{Error, OutputLock, Result};
 
+use crate::error::SpecField;
 use crate::garment_drape::SequenceSettings;
 use crate::manifest::{
     DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
@@ -146,10 +147,10 @@ impl DatasetWriter {
     /// # Errors
     /// [`Error::InvalidArgument`] for an inconsistent spec; [`Error::Io`] if the directory is
     /// not writable, or with kind `WouldBlock` if another process (or writer) holds its lock;
-    /// [`Error::Mismatch`] if the existing manifest has a different template, body,
-    /// materials, poses, frames, solver or smoothing settings; [`Error::Parse`] for a
-    /// malformed existing manifest or marker.
-    pub fn open(dir: impl AsRef<Path>, spec: DatasetSpec) -> Result<Self> {
+    /// [`crate::Error::SpecMismatch`] if the existing manifest has a different revision,
+    /// protocol, template, body, materials, poses, frames, solver or smoothing settings;
+    /// [`Error::Parse`] for a malformed existing manifest or marker.
+    pub fn open(dir: impl AsRef<Path>, spec: DatasetSpec) -> crate::Result<Self> {
         let dir = dir.as_ref().to_owned();
         spec.validate()?;
         std::fs::create_dir_all(samples_dir(&dir)).map_err(|e| Error::io(&dir, e))?;
@@ -324,7 +325,7 @@ impl Drop for DatasetWriter {
     }
 }
 
-pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> Result<()> {
+pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> crate::Result<()> {
     compare_specs(existing, new, true, &|what| {
         format!("existing dataset's {what} (use a new directory or the same settings)")
     })
@@ -337,16 +338,19 @@ pub(crate) fn compare_specs(
     new: &DatasetSpec,
     materials: bool,
     describe: &dyn Fn(&str) -> String,
-) -> Result<()> {
-    let differs = |what: &str, expected: String, got: String| Error::Mismatch {
-        what: describe(what),
-        expected,
-        got,
-    };
+) -> crate::Result<()> {
+    let differs =
+        |field: SpecField, what: &str, expected: String, got: String| crate::Error::SpecMismatch {
+            field,
+            what: describe(what),
+            expected,
+            got,
+        };
     if existing.ground_truth_revision != new.ground_truth_revision {
         // Compared first: with another solver every other field may match and the drapes
         // still differ.
         return Err(differs(
+            SpecField::GroundTruthRevision,
             "ground-truth revision (which solver's drapes; a dataset holds one revision's)",
             revision_label(existing.ground_truth_revision),
             revision_label(new.ground_truth_revision),
@@ -354,6 +358,7 @@ pub(crate) fn compare_specs(
     }
     if existing.protocol != new.protocol {
         return Err(differs(
+            SpecField::Protocol,
             "drape protocol (a dataset holds one protocol's drapes)",
             existing.protocol.name().to_owned(),
             new.protocol.name().to_owned(),
@@ -361,6 +366,7 @@ pub(crate) fn compare_specs(
     }
     if existing.template != new.template {
         return Err(differs(
+            SpecField::Template,
             "template",
             format!("{:?}", existing.template),
             format!("{:?}", new.template),
@@ -368,6 +374,7 @@ pub(crate) fn compare_specs(
     }
     if existing.body != new.body {
         return Err(differs(
+            SpecField::Body,
             "body",
             existing.body.name.clone(),
             new.body.name.clone(),
@@ -381,7 +388,12 @@ pub(crate) fn compare_specs(
             .join(", ")
     };
     if materials && existing.materials != new.materials {
-        return Err(differs("materials", names(existing), names(new)));
+        return Err(differs(
+            SpecField::Materials,
+            "materials",
+            names(existing),
+            names(new),
+        ));
     }
     if existing.poses != new.poses || existing.frames != new.frames {
         let first = (0..existing.poses.len().max(new.poses.len()))
@@ -391,6 +403,7 @@ pub(crate) fn compare_specs(
             })
             .unwrap_or(0);
         return Err(differs(
+            SpecField::Poses,
             "poses",
             format!("{} poses", existing.poses.len()),
             format!(
@@ -401,6 +414,7 @@ pub(crate) fn compare_specs(
     }
     if !same_solver(&existing.solver, &new.solver) {
         return Err(differs(
+            SpecField::Solver,
             "solver settings",
             existing.solver.to_string(),
             new.solver.to_string(),
@@ -408,6 +422,7 @@ pub(crate) fn compare_specs(
     }
     if existing.smoothing != new.smoothing {
         return Err(differs(
+            SpecField::Smoothing,
             "smoothing",
             format!("{:?}", existing.smoothing),
             format!("{:?}", new.smoothing),
@@ -610,7 +625,7 @@ pub(crate) mod tests {
         let first = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
         let err = DatasetWriter::open(dir.path(), tiny_spec()).unwrap_err();
         assert!(
-            matches!(&err, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::WouldBlock),
+            matches!(&err, crate::Error::Core(Error::Io { source, .. }) if source.kind() == std::io::ErrorKind::WouldBlock),
             "{err}"
         );
         drop(first);
@@ -625,27 +640,42 @@ pub(crate) mod tests {
         other.template.hash = "def456".into();
         assert!(matches!(
             DatasetWriter::open(dir.path(), other),
-            Err(Error::Mismatch { .. })
+            Err(crate::Error::SpecMismatch {
+                field: SpecField::Template,
+                ..
+            })
         ));
         let mut other = tiny_spec();
         other.materials[1].omega[4] += 1e-9;
         assert!(matches!(
             DatasetWriter::open(dir.path(), other),
-            Err(Error::Mismatch { .. })
+            Err(crate::Error::SpecMismatch {
+                field: SpecField::Materials,
+                ..
+            })
         ));
         // Settings the solver does not know are compared as written.
         let mut other = tiny_spec();
         other.solver["tolerance"] = serde_json::json!(1e-7);
         assert!(matches!(
             DatasetWriter::open(dir.path(), other),
-            Err(Error::Mismatch { .. })
+            Err(crate::Error::SpecMismatch {
+                field: SpecField::Solver,
+                ..
+            })
         ));
         let mut other = tiny_spec();
         other.poses.pop();
         other.frames.pop();
         let err = DatasetWriter::open(dir.path(), other).unwrap_err();
         assert!(
-            matches!(err, Error::Mismatch { .. }) && err.to_string().contains("pose 3"),
+            matches!(
+                err,
+                crate::Error::SpecMismatch {
+                    field: SpecField::Poses,
+                    ..
+                }
+            ) && err.to_string().contains("pose 3"),
             "{err}"
         );
     }
@@ -683,7 +713,10 @@ pub(crate) mod tests {
         today.solver = serde_json::to_value(&settings).unwrap();
         assert!(matches!(
             DatasetWriter::open(dir.path(), today),
-            Err(Error::Mismatch { .. })
+            Err(crate::Error::SpecMismatch {
+                field: SpecField::Solver,
+                ..
+            })
         ));
     }
 

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::{samples_dir, scan_samples};
-use crate::dataset_generator::SampleDeriver;
+use crate::sample_deriver::SampleDeriver;
 use crate::manifest::{DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, revision_label};
 use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
 

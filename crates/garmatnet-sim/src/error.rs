@@ -71,10 +71,46 @@ pub enum Error {
         /// How far (metres) the nearest vertex lies from its mirror image.
         nearest_twin_m: Real,
     },
+    /// An existing dataset (resumed, or built on with `--reuse`) was made with other
+    /// settings than the new run asks for: `field` says which. Use a new directory, or the
+    /// settings the dataset was made with (its `manifest.json` records them).
+    #[error("{what}: expected {expected}, got {got}")]
+    SpecMismatch {
+        /// Which part of the dataset's spec differs.
+        field: SpecField,
+        /// What differs, and what to do about it.
+        what: String,
+        /// The existing dataset's value.
+        expected: String,
+        /// The new run's value.
+        got: String,
+    },
     /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
     /// Finished samples are on disk; run the same command again to resume.
     #[error("interrupted; finished samples are saved, run the same command again to resume")]
     Interrupted,
+}
+
+/// The part of a dataset's spec ([`crate::DatasetSpec`]) in which two datasets differ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum SpecField {
+    /// The ground-truth revision (which solver's drapes).
+    GroundTruthRevision,
+    /// The drape protocol (canonical or walk).
+    Protocol,
+    /// The garment template.
+    Template,
+    /// The body.
+    Body,
+    /// The materials, by name and ω.
+    Materials,
+    /// The poses (and their frame numbers).
+    Poses,
+    /// The solver settings.
+    Solver,
+    /// The Laplacian smoothing settings.
+    Smoothing,
 }
 
 /// Shorthand for results in `garmatnet-sim`.

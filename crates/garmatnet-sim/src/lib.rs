@@ -28,6 +28,7 @@ mod newton_system;
 pub mod pose_sampler;
 pub mod reuse;
 pub mod sample_arrays;
+mod sample_deriver;
 pub mod self_intersection;
 pub mod shard;
 
@@ -38,13 +39,13 @@ pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
 pub use dataset_generator::{
-    BODY_NAME, GenerateConfig, GenerateEvent, GenerateReport, SampleDeriver, SampleDone,
-    dataset_spec, generate_dataset,
+    GenerateConfig, GenerateEvent, GenerateReport, SampleDone, dataset_spec, generate_dataset,
 };
+pub use sample_deriver::{BODY_NAME, SampleDeriver};
 pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
-pub use error::{Error, Result};
+pub use error::{Error, Result, SpecField};
 pub use everyday_poses::{EverydayPose, everyday_pose, everyday_pose_names, everyday_poses};
 pub use garment_drape::{
     FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,

@@ -35,10 +35,10 @@ pub struct ImportReport {
 ///
 /// # Errors
 /// - as [`DatasetReader::open`] and [`DatasetReader::read_sample`] for `source`;
-/// - [`Error::Mismatch`] if `source` differs from the destination in anything but its
-///   material list (template, body, poses or frames, solver settings, smoothing: its
-///   samples would be walks another dataset does not make), or lists a material under the
-///   destination's name with another ω;
+/// - [`crate::Error::SpecMismatch`] if `source` differs from the destination in anything
+///   but its material list (template, body, poses or frames, solver settings, smoothing: its
+///   samples would be walks another dataset does not make); [`Error::Mismatch`] if it lists
+///   a material under the destination's name with another ω;
 /// - [`Error::InvalidArgument`] if the two share no material at all (a shard that takes
 ///   none of the shared ones imports nothing, so one command serves every shard);
 /// - as [`DatasetWriter::write_sample`] for the destination.

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Result};
 
 use crate::dataset::{DatasetWriter, ensure_same_spec, samples_dir, scan_samples};
-use crate::dataset_generator::SampleDeriver;
+use crate::sample_deriver::SampleDeriver;
 use crate::manifest::{DatasetSpec, Manifest};
 use crate::sample_arrays::read_simulated;
 
