@@ -60,6 +60,15 @@ pub struct TrainOptions {
     /// Low-rank output head with this many principal components (smaller, faster model).
     #[arg(long)]
     pub rank: Option<usize>,
+    /// Hybrid physics-informed training: the local net's loss adds λ times the drape
+    /// energy per unit weight (metres) of the full prediction at (pose, fabric) pairs drawn
+    /// every step (fabrics uniform in normalised ω, poses within the joint limits).
+    /// Default 0: off.
+    #[arg(long, value_name = "λ")]
+    pub physics_weight: Option<f64>,
+    /// (pose, fabric) pairs per step of the physics term (default 8).
+    #[arg(long)]
+    pub physics_batch: Option<usize>,
     /// The weight controller α ∈ [0, 1] (paper §3.6).
     #[arg(long)]
     pub alpha: Option<f64>,
@@ -153,6 +162,12 @@ impl TrainOptions {
         }
         if self.rank.is_some() {
             c.output_rank = self.rank;
+        }
+        if let Some(v) = self.physics_weight {
+            c.physics.weight = v;
+        }
+        if let Some(v) = self.physics_batch {
+            c.physics.batch_size = v;
         }
         if let Some(v) = self.alpha {
             c.alpha = v;

@@ -7,7 +7,7 @@
 
 use std::sync::{Arc, OnceLock};
 
-use crate::capsule::{Capsule, PreparedCapsule};
+use crate::capsule::{Capsule, CapsuleGeometry, PreparedCapsule};
 use crate::error::{Error, Result};
 use crate::math::{Iso3, Real, Vec3};
 use crate::mesh::TriMesh;
@@ -269,6 +269,14 @@ impl PosedBody {
             let weights = blend_weights(&self.capsules, &self.body.shared.capsules, p);
             *p = blend_point(&relative, &weights, p);
         }
+    }
+
+    /// The posed capsules' geometry, in the body's order (the order the smooth union folds
+    /// them in; its blend radius is [`CapsuleBody::blend_radius`]): what a distance
+    /// evaluated elsewhere (the training crate's tensor energy) needs.
+    #[must_use]
+    pub fn capsule_geometry(&self) -> Vec<CapsuleGeometry> {
+        self.capsules.iter().map(PreparedCapsule::geometry).collect()
     }
 
     /// The rest body this was posed from.

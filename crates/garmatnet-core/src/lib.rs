@@ -31,7 +31,7 @@ pub mod surface_nets;
 pub mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
-pub use capsule::Capsule;
+pub use capsule::{Capsule, CapsuleGeometry};
 pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };

@@ -11,7 +11,7 @@ pub mod contact;
 pub mod dataset;
 pub mod dataset_generator;
 pub mod dataset_reader;
-mod drape_energy;
+pub mod drape_energy;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
@@ -34,6 +34,9 @@ pub use dataset_generator::{
     dataset_spec, generate_dataset,
 };
 pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
+pub use drape_energy::{
+    EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
+};
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};

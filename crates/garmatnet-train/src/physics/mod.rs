@@ -1,0 +1,18 @@
+//! Physics-informed training (issue 49): the solver's drape energy in tensors
+//! ([`ClothTensors::energy`]) over the posed capsule body's distance field in tensors
+//! ([`CapsuleTensors`]), differentiable in the garment's positions; (pose, fabric) pairs
+//! drawn continuously ([`PhysicsBatch`]); and the two nets' physics-informed loss
+//! ([`TwoNetPhysicsLoss`]).
+
+mod batch;
+mod body_field;
+mod energy;
+mod hybrid;
+mod two_net_loss;
+
+pub use batch::{JointLimitsPoses, PhysicsBatch, PoseSource, uniform_fabric};
+pub use body_field::{CapsuleTensors, smooth_union};
+pub use energy::{ClothTensors, EnergyTensors};
+pub(crate) use hybrid::LocalPhysics;
+pub use hybrid::PhysicsConfig;
+pub use two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
