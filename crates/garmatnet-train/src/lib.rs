@@ -68,7 +68,7 @@ pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use physics::{
     CapsuleTensors, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors,
     PhysicsBatch, PhysicsConfig, PoseSource, TwoNetPhysicsLoss, rest_offset_normalizers, smooth_union,
-    uniform_fabric,
+    PhysicsOnlyConfig, PhysicsOnlySummary, train_physics_only, uniform_fabric,
 };
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;

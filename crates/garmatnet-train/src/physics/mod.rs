@@ -8,6 +8,7 @@ mod batch;
 mod body_field;
 mod energy;
 mod hybrid;
+mod physics_only;
 mod two_net_loss;
 
 pub use batch::{JointLimitsPoses, PhysicsBatch, PoseSource, uniform_fabric};
@@ -16,3 +17,4 @@ pub use energy::{ClothTensors, EnergyTensors};
 pub(crate) use hybrid::LocalPhysics;
 pub use hybrid::PhysicsConfig;
 pub use two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
+pub use physics_only::{PhysicsOnlyConfig, PhysicsOnlySummary, train_physics_only};
