@@ -289,7 +289,10 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
             .into_iter()
             .find(|r| r.name().eq_ignore_ascii_case(args.resolution.trim()))
             .ok_or_else(|| {
-                anyhow::anyhow!("--resolution {}: use coarse, default or paper", args.resolution)
+                anyhow::anyhow!(
+                    "--resolution {}: use coarse, default or paper",
+                    args.resolution
+                )
             })?;
         // Unset flags take physics-only training's defaults, not supervised training's.
         let (o, d) = (&args.options, PhysicsOnlyConfig::default().train);

@@ -276,7 +276,10 @@ impl PosedBody {
     /// evaluated elsewhere (the training crate's tensor energy) needs.
     #[must_use]
     pub fn capsule_geometry(&self) -> Vec<CapsuleGeometry> {
-        self.capsules.iter().map(PreparedCapsule::geometry).collect()
+        self.capsules
+            .iter()
+            .map(PreparedCapsule::geometry)
+            .collect()
     }
 
     /// The rest body this was posed from.

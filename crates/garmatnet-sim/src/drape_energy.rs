@@ -534,7 +534,10 @@ mod tests {
             e.change(&x0, &x1, &contacts0, &sphere),
             max_relative = 1e-9
         );
-        assert!(e.change(&x0, &x0, &none, &sphere).abs() > 0.0, "contacts count");
+        assert!(
+            e.change(&x0, &x0, &none, &sphere).abs() > 0.0,
+            "contacts count"
+        );
         let h = 1e-7;
         for i in 0..3 {
             for c in 0..3 {

@@ -66,9 +66,9 @@ pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use physics::{
-    CapsuleTensors, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors,
-    PhysicsBatch, PhysicsConfig, PoseSource, TwoNetPhysicsLoss, rest_offset_normalizers, smooth_union,
-    PhysicsOnlyConfig, PhysicsOnlySummary, train_physics_only, uniform_fabric,
+    CapsuleTensors, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
+    PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PoseSource, TwoNetPhysicsLoss,
+    rest_offset_normalizers, smooth_union, train_physics_only, uniform_fabric,
 };
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;

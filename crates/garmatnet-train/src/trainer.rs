@@ -12,21 +12,21 @@ use std::path::{Path, PathBuf};
 
 use burn::prelude::*;
 use garmatnet_core::DisplacementFrame;
-use garmatnet_sim::SequenceSettings;
 use garmatnet_model::{
     GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, PoseEncoding,
     TemplateInfo, TrainingProvenance, select_device,
 };
+use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
 use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
 use crate::error::{Error, Result};
-use crate::split::SplitConfig;
 use crate::physics::{LocalPhysics, NormalizerTensors, PhysicsConfig};
+use crate::split::SplitConfig;
 use crate::training_loop::{
-    ExtraLoss, LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, epoch_progress,
-    fit_net, fit_net_with, fit_normalizer, initial_progress,
+    ExtraLoss, LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, epoch_progress, fit_net,
+    fit_net_with, fit_normalizer, initial_progress,
 };
 
 /// Everything that defines a GarMatNet training run (CLI options map onto these fields).
@@ -1133,7 +1133,8 @@ pub(crate) mod tests {
         // The energy per unit weight includes the garment's mean height (about a metre), so
         // the hybrid's train loss carries λ times about that on top of the MSE.
         assert!(
-            hybrid.last_train_mse.is_finite() && hybrid.last_train_mse > plain.last_train_mse + 0.02,
+            hybrid.last_train_mse.is_finite()
+                && hybrid.last_train_mse > plain.last_train_mse + 0.02,
             "{} vs {}",
             hybrid.last_train_mse,
             plain.last_train_mse

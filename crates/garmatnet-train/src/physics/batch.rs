@@ -151,7 +151,10 @@ impl PhysicsBatch {
     pub fn inputs_on(&self, device: &Device) -> (Tensor<2>, Tensor<2>) {
         let size = self.pose_rows.len() / POSE_DIM;
         (
-            Tensor::from_data(TensorData::new(self.pose_rows.clone(), [size, POSE_DIM]), device),
+            Tensor::from_data(
+                TensorData::new(self.pose_rows.clone(), [size, POSE_DIM]),
+                device,
+            ),
             Tensor::from_data(
                 TensorData::new(self.omega_rows.clone(), [size, MATERIAL_DIM]),
                 device,

@@ -125,7 +125,10 @@ impl CapsuleTensors {
         let radial_vec = d.clone() - axis * axial.clone();
         let axial: Tensor<3> = axial.squeeze_dim(3);
         let radial = safe_norm(radial_vec);
-        let (na, nr) = (per_capsule(&self.normal_axial), per_capsule(&self.normal_radial));
+        let (na, nr) = (
+            per_capsule(&self.normal_axial),
+            per_capsule(&self.normal_radial),
+        );
         let along_side = axial.clone() * nr.clone() - radial.clone() * na.clone();
         let sphere_a = safe_norm(d) - per_capsule(&self.radius_a);
         let sphere_b =
@@ -135,7 +138,8 @@ impl CapsuleTensors {
             .clone()
             .greater_equal(per_capsule(&self.side_end).expand([batch, n, c]));
         let before_a = along_side.lower_equal_elem(0.0);
-        side.mask_where(past_b, sphere_b).mask_where(before_a, sphere_a)
+        side.mask_where(past_b, sphere_b)
+            .mask_where(before_a, sphere_a)
     }
 
     /// The body's signed distance (metres) at every point: the smooth union
@@ -208,7 +212,9 @@ mod tests {
         let body = CapsuleBody::smpl_neutral();
         let limits = JointLimits::default();
         let mut rng = SplitMix64::new(17);
-        let posed: Vec<_> = (0..3).map(|_| body.pose(&limits.sample(&mut rng, 1.0))).collect();
+        let posed: Vec<_> = (0..3)
+            .map(|_| body.pose(&limits.sample(&mut rng, 1.0)))
+            .collect();
         let refs: Vec<_> = posed.iter().collect();
         let ad = Device::flex().autodiff();
         let caps = CapsuleTensors::new(&refs, &ad, DType::F64).unwrap();
@@ -228,18 +234,33 @@ mod tests {
             .require_grad();
         let d = caps.distance(x.clone());
         let grads = d.clone().sum().backward();
-        let g: Vec<f64> = x.grad(&grads).unwrap().into_data().try_into_vec_as::<f64>().unwrap();
+        let g: Vec<f64> = x
+            .grad(&grads)
+            .unwrap()
+            .into_data()
+            .try_into_vec_as::<f64>()
+            .unwrap();
         let d: Vec<f64> = d.into_data().try_into_vec_as::<f64>().unwrap();
         let (mut blended, mut inside) = (0, 0);
         for (i, p) in points.iter().enumerate() {
             let (expected, gradient) = posed[i / n].distance_and_gradient(p);
-            assert!((d[i] - expected).abs() < 1e-12, "{i}: {} vs {expected}", d[i]);
+            assert!(
+                (d[i] - expected).abs() < 1e-12,
+                "{i}: {} vs {expected}",
+                d[i]
+            );
             let got = Vec3::new(g[3 * i], g[3 * i + 1], g[3 * i + 2]);
-            assert!((got - gradient).norm() < 1e-9, "{i}: {got:?} vs {gradient:?}");
+            assert!(
+                (got - gradient).norm() < 1e-9,
+                "{i}: {got:?} vs {gradient:?}"
+            );
             blended += usize::from(gradient.norm() < 0.999);
             inside += usize::from(expected < 0.0);
         }
-        assert!(blended > 20 && inside > 500, "{blended} blended, {inside} inside");
+        assert!(
+            blended > 20 && inside > 500,
+            "{blended} blended, {inside} inside"
+        );
     }
 
     #[test]

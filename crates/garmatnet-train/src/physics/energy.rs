@@ -96,7 +96,11 @@ impl ClothTensors {
                         first.vertex_count(),
                         first.springs().len()
                     ),
-                    got: format!("{} vertices, {} springs", m.vertex_count(), m.springs().len()),
+                    got: format!(
+                        "{} vertices, {} springs",
+                        m.vertex_count(),
+                        m.springs().len()
+                    ),
                 }
                 .into());
             }
@@ -110,10 +114,16 @@ impl ClothTensors {
             Tensor::<2>::from_data(TensorData::new(v, [batch, cols]), (device, dtype))
         };
         let per_spring = |f: fn(&garmatnet_sim::SpringSpec) -> Real| {
-            let v = models.iter().flat_map(|m| m.springs().iter().map(f)).collect();
+            let v = models
+                .iter()
+                .flat_map(|m| m.springs().iter().map(f))
+                .collect();
             matrix(v, springs)
         };
-        let masses = models.iter().flat_map(|m| m.masses().iter().copied()).collect();
+        let masses = models
+            .iter()
+            .flat_map(|m| m.masses().iter().copied())
+            .collect();
         let contact = models
             .iter()
             .flat_map(|m| contact_stiffness(m, settings))
@@ -170,7 +180,12 @@ impl ClothTensors {
         if batch != self.batch() || n != self.vertices || three != 3 || body.batch() != batch {
             return Err(CoreError::Mismatch {
                 what: "garment positions and capsule bodies of an energy batch".into(),
-                expected: format!("[{}, {}, 3] and {} bodies", self.batch(), self.vertices, batch),
+                expected: format!(
+                    "[{}, {}, 3] and {} bodies",
+                    self.batch(),
+                    self.vertices,
+                    batch
+                ),
                 got: format!("[{batch}, {n}, {three}] and {} bodies", body.batch()),
             }
             .into());
@@ -193,7 +208,11 @@ impl ClothTensors {
             .squeeze_dim::<1>(1)
             .mul_scalar(self.gravity);
         let distance = body.distance(x);
-        let gap = distance.clone().neg().add_scalar(self.margin).clamp_min(0.0);
+        let gap = distance
+            .clone()
+            .neg()
+            .add_scalar(self.margin)
+            .clamp_min(0.0);
         let mut contact_density = gap.square().mul_scalar(0.5);
         if self.hardening > 0.0 {
             let depth = distance.neg().sub_scalar(HARDENING_DEPTH).clamp_min(0.0);
@@ -215,8 +234,8 @@ impl ClothTensors {
 mod tests {
     use super::*;
     use garmatnet_core::{
-        CapsuleBody, Garment, JointLimits, PosedBody, Resolution, SignedDistance, SplitMix64,
-        Vec3, presets,
+        CapsuleBody, Garment, JointLimits, PosedBody, Resolution, SignedDistance, SplitMix64, Vec3,
+        presets,
     };
     use garmatnet_sim::{EnergyTerms, cloth_from_garment, drape_energy_and_gradient};
 
@@ -273,7 +292,12 @@ mod tests {
         let grads = e.total().sum().backward();
         let read1 = |t: Tensor<1>| -> Vec<f64> { t.into_data().try_into_vec_as::<f64>().unwrap() };
         let (springs, gravity, contact) = (read1(e.springs), read1(e.gravity), read1(e.contact));
-        let g: Vec<f64> = x.grad(&grads).unwrap().into_data().try_into_vec_as::<f64>().unwrap();
+        let g: Vec<f64> = x
+            .grad(&grads)
+            .unwrap()
+            .into_data()
+            .try_into_vec_as::<f64>()
+            .unwrap();
         let (mut term_error, mut grad_error, mut grad_max) = ([0.0f64; 3], 0.0f64, 0.0f64);
         let (mut in_margin, mut hardened) = (0, 0);
         for (s, ((model, posed), x)) in b.models.iter().zip(&b.posed).zip(&b.x).enumerate() {
@@ -312,7 +336,10 @@ mod tests {
         for (resolution, seed) in [(Resolution::Coarse, 1), (Resolution::Default, 2)] {
             let (terms, gradient) = errors(&batch(resolution, seed), DType::F64);
             println!("{resolution:?} f64: term errors {terms:?}, gradient {gradient:e}");
-            assert!(terms.iter().all(|&e| e < 1e-10), "{resolution:?}: {terms:?}");
+            assert!(
+                terms.iter().all(|&e| e < 1e-10),
+                "{resolution:?}: {terms:?}"
+            );
             assert!(gradient < 1e-10, "{resolution:?}: {gradient:e}");
         }
     }

@@ -16,5 +16,5 @@ pub use body_field::{CapsuleTensors, smooth_union};
 pub use energy::{ClothTensors, EnergyTensors};
 pub(crate) use hybrid::LocalPhysics;
 pub use hybrid::PhysicsConfig;
-pub use two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 pub use physics_only::{PhysicsOnlyConfig, PhysicsOnlySummary, train_physics_only};
+pub use two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};

@@ -141,7 +141,9 @@ impl TwoNetPhysicsLoss {
             }
         }
         let smoothed = Tensor::<3>::from_data(TensorData::new(smoothed, [b, n, 3]), &device);
-        let target = fitting_norm.normalize(batch.displacements(smoothed)).detach();
+        let target = fitting_norm
+            .normalize(batch.displacements(smoothed))
+            .detach();
         let decomposition = MseLoss::new().forward(fitting_out, target, Reduction::Mean);
         Ok(Self {
             energy,
@@ -249,7 +251,12 @@ mod tests {
         let held_out = draw(&t, &mut rng, 4);
         let eval = |f: &GarMatNet, l: &GarMatNet| {
             let loss = TwoNetPhysicsLoss::new(
-                f, l, &t.fitting_norm, &t.local_norm, &held_out, &t.smoother,
+                f,
+                l,
+                &t.fitting_norm,
+                &t.local_norm,
+                &held_out,
+                &t.smoother,
             )
             .unwrap();
             (scalar(loss.energy), scalar(loss.decomposition))
@@ -262,7 +269,12 @@ mod tests {
         for _ in 0..steps {
             let batch = draw(&t, &mut rng, 4);
             let loss = TwoNetPhysicsLoss::new(
-                &fitting, &local, &t.fitting_norm, &t.local_norm, &batch, &t.smoother,
+                &fitting,
+                &local,
+                &t.fitting_norm,
+                &t.local_norm,
+                &batch,
+                &t.smoother,
             )
             .unwrap();
             let total = loss.total();
@@ -344,7 +356,10 @@ mod tests {
              {energy_before:.4} -> {energy_after:.4} m"
         );
         assert!(sup_after < sup_before, "{sup_before} -> {sup_after}");
-        assert!(energy_after < energy_before, "{energy_before} -> {energy_after}");
+        assert!(
+            energy_after < energy_before,
+            "{energy_before} -> {energy_after}"
+        );
     }
 
     /// Time per physics step (batch 8, both nets, hidden 512) at default resolution; run
@@ -358,7 +373,7 @@ mod tests {
             let (mut fitting, mut local) = (config.init(&t.ad), config.init(&t.ad));
             let mut rng = SplitMix64::new(4);
             let (mut opt_f, mut opt_l): (ModuleOptimizer, ModuleOptimizer) =
-            (AdamConfig::new().init(), AdamConfig::new().init());
+                (AdamConfig::new().init(), AdamConfig::new().init());
             let (mut draw_s, mut step_s) = (0.0, 0.0);
             let steps = 5;
             for _ in 0..steps {
@@ -367,7 +382,12 @@ mod tests {
                 draw_s += started.elapsed().as_secs_f64();
                 let started = Instant::now();
                 let loss = TwoNetPhysicsLoss::new(
-                    &fitting, &local, &t.fitting_norm, &t.local_norm, &batch, &t.smoother,
+                    &fitting,
+                    &local,
+                    &t.fitting_norm,
+                    &t.local_norm,
+                    &batch,
+                    &t.smoother,
                 )
                 .unwrap();
                 let grads = loss.total().backward();
