@@ -279,10 +279,10 @@ mod tests {
             .unwrap();
             let total = loss.total();
             assert!(scalar(total.clone()).is_finite());
-            let grads = total.backward();
+            let mut grads = total.backward();
             let (gf, gl) = (
-                GradientsParams::from_grads(grads.clone(), &fitting),
-                GradientsParams::from_grads(grads, &local),
+                GradientsParams::from_module(&mut grads, &fitting),
+                GradientsParams::from_module(&mut grads, &local),
             );
             fitting = opt_f.step(1e-3, fitting, gf);
             local = opt_l.step(1e-3, local, gl);
@@ -339,10 +339,10 @@ mod tests {
             let loss = supervised(&fitting, &local)
                 + physics(&fitting, &local, &batch).total().mul_scalar(weight);
             assert!(scalar(loss.clone()).is_finite());
-            let grads = loss.backward();
+            let mut grads = loss.backward();
             let (gf, gl) = (
-                GradientsParams::from_grads(grads.clone(), &fitting),
-                GradientsParams::from_grads(grads, &local),
+                GradientsParams::from_module(&mut grads, &fitting),
+                GradientsParams::from_module(&mut grads, &local),
             );
             fitting = opt_f.step(1e-3, fitting, gf);
             local = opt_l.step(1e-3, local, gl);
@@ -390,10 +390,10 @@ mod tests {
                     &t.smoother,
                 )
                 .unwrap();
-                let grads = loss.total().backward();
+                let mut grads = loss.total().backward();
                 let (gf, gl) = (
-                    GradientsParams::from_grads(grads.clone(), &fitting),
-                    GradientsParams::from_grads(grads, &local),
+                    GradientsParams::from_module(&mut grads, &fitting),
+                    GradientsParams::from_module(&mut grads, &local),
                 );
                 fitting = opt_f.step(1e-4, fitting, gf);
                 local = opt_l.step(1e-4, local, gl);
