@@ -115,14 +115,13 @@ impl LocalPhysics {
             .into_data()
             .try_into_vec_as::<f32>()
             .unwrap_or_else(|e| panic!("reading a tensor back from the device failed: {e:?}"));
-        let fitting: Vec<f32> = self
-            .fitting_norm
-            .denormalize(&fitting)
-            .into_iter()
-            .map(|v: Real| v as f32)
-            .collect();
         let size = self.config.batch_size;
         let cols = fitting.len() / size;
+        let fitting: Vec<f32> = fitting
+            .chunks_exact(cols)
+            .flat_map(|row| self.fitting_norm.denormalize(row))
+            .map(|v: Real| v as f32)
+            .collect();
         let fitting = Tensor::<2>::from_data(TensorData::new(fitting, [size, cols]), &self.device);
         let local = self
             .local_norm
