@@ -219,7 +219,7 @@ pub fn train_physics_only(
         )
     };
     let held_out = draw(
-        &mut SplitMix64::new(t.seed ^ 0x5EED_0F_4E1D),
+        &mut SplitMix64::new(t.seed ^ 0x005E_ED0F_4E1D),
         config.held_out_pairs,
         &device,
     )?;
