@@ -5,7 +5,7 @@
 //! generation does) at the default and paper resolutions, and a cold drape from the rest
 //! template. The material is Cotton Poplin; settings are the defaults datasets use. The motion
 //! is the gentle pace (frame 10 to 11), so the figures stay comparable with earlier runs; the
-//! default brisk pace walks about 5x farther between frames (README: 1.85x per sample).
+//! default brisk pace walks about 5x farther between frames (book/src/performance.md: 1.85x per sample).
 //! Beside them, the interactive frame: the same pose change stepped as an application would
 //! step it ([`FrameStepper`]: the drape carried with the skin in one step, then at most 8
 //! Newton iterations, on a solver made once).

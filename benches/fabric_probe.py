@@ -1,7 +1,6 @@
 """Does one simulated drape describe a fabric better than its omega? (data only, no nets)
 
-Usage: python3 benches/fabric_probe.py DATASET   (numpy only; EXPERIMENTS.md, "The fabric
-term: one simulated drape describes a fabric better than its ω")
+Usage: python3 benches/fabric_probe.py DATASET   (numpy only; book/src/experiments/one-drape.md)
 
 For each held-out fabric F (the paper's four targets against every other fabric; and each
 fabric left out in turn), at every frame f >= 1, the fitting labels L(F, f) = smoothed -

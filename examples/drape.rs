@@ -100,7 +100,7 @@ fn main() -> Result<()> {
         args.device
     );
     // How far each fabric lies from what the model learned: the farther from its nearest
-    // training fabric, the larger the error to expect (README, "The typed API").
+    // training fabric, the larger the error to expect (book/src/api.md).
     for (name, material) in &fabrics {
         if let Some((nearest, distance)) = predictor.nearest_training_fabric(material) {
             if distance == 0.0 {
@@ -122,7 +122,8 @@ fn main() -> Result<()> {
     predictor.predict(&poses[0].1, &fabrics[0].1, args.detail)?;
 
     let body_model = CapsuleBody::smpl_neutral();
-    let template = Garment::tshirt(predictor.model().meta.template.resolution, &body_model)?;
+    let info = &predictor.model().meta.template;
+    let template = Garment::for_template(info.resolution, &info.hash, &body_model)?;
     let settings = RenderSettings::default();
     for (spec, pose) in &poses {
         let pose_name = match spec.parse::<usize>() {

@@ -2,10 +2,10 @@
 //! --deltas 0,0.005,0.02]`
 //!
 //! How far a ground-truth drape moves when the fabric changes a little. Each material is
-//! draped along the built-in motion (the 200 brisk frames of seed 0 that the README's
-//! datasets walk, default resolution, the dataset settings) up to `--frames`, once as given
-//! and once per `--deltas` entry with its normalised ω moved that far along one fixed
-//! direction (unit length in the normalised cube). The mean per-vertex distance between
+//! draped along the built-in motion (the 200 brisk frames of seed 0 that the datasets of
+//! book/src/results.md walk, default resolution, the dataset settings) up to `--frames`,
+//! once as given and once per `--deltas` entry with its normalised ω moved that far along
+//! one fixed direction (unit length in the normalised cube). The mean per-vertex distance between
 //! the two drapes, over the second half of the frames, is what any model must resolve to
 //! tell the two fabrics apart; if it does not fall towards zero with the step, the drape is
 //! not a smooth function of the fabric and no regressor on (pose, fabric) can beat that
@@ -40,7 +40,7 @@ struct Args {
     friction: Option<f64>,
 }
 
-/// Frames of the README datasets' motion.
+/// Frames of the motion the datasets of book/src/results.md walk.
 const MOTION_FRAMES: usize = 200;
 
 /// The fixed direction of the steps: every component moves, none dominates.

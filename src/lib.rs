@@ -57,6 +57,16 @@
 //! # }
 //! ```
 
+// The README's quick start and the book's Rust snippets, compiled (and the `no_run` ones not
+// run) as doctests by `cargo test --workspace --release --all-features`.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
+#[cfg(doctest)]
+#[doc = include_str!("../book/src/api.md")]
+pub struct BookApiDoctests;
+
 pub use garmatnet_core as core;
 pub use garmatnet_model as model;
 pub use garmatnet_sim as sim;

@@ -1379,3 +1379,52 @@ fn template_and_body_refuse_an_output_that_is_not_obj() -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// `--poses N` draws N independent poses by default (pose i a function of the seed and i),
+/// `--motion brisk` keeps the walk, and `--poses everyday` drapes the named suite.
+#[test]
+fn simulate_draws_independent_poses_by_default_and_keeps_the_walk() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let simulate = |out: &str, args: &[&str]| -> anyhow::Result<serde_json::Value> {
+        let output = garmatnet()
+            .args(["simulate", "--materials", "Cotton Poplin", "--seed", "3"])
+            .args(["--resolution", "coarse", "--quiet", "--solver"])
+            .arg(&quick)
+            .args(args)
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .output()?;
+        anyhow::ensure!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        Ok(serde_json::from_slice(&std::fs::read(
+            dir.path().join(out).join("manifest.json"),
+        )?)?)
+    };
+    let as_json = |poses: Vec<garmatnet::core::Pose>| serde_json::to_value(poses);
+    let sampler = garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
+        seed: 3,
+        ..Default::default()
+    })?;
+    let independent = simulate("independent", &["--poses", "2"])?;
+    assert_eq!(independent["poses"], as_json(sampler.poses(2)?)?);
+    let walk = simulate("walk", &["--poses", "2", "--motion", "brisk"])?;
+    assert_eq!(
+        walk["poses"],
+        as_json(garmatnet::sim::MotionGenerator::new(3, 2).generate())?
+    );
+    let unknown = garmatnet()
+        .args(["simulate", "--poses", "2", "--motion", "sprint", "--out"])
+        .arg(dir.path().join("never"))
+        .output()?;
+    let stderr = String::from_utf8_lossy(&unknown.stderr);
+    assert!(
+        !unknown.status.success() && stderr.contains("independent"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("never").exists());
+    Ok(())
+}

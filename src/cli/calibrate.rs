@@ -36,8 +36,8 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub name: Option<String>,
     /// A pose file (.json, .npz, .npy) whose --frames are the reference poses. Default: the
-    /// shipped model's training motion (`simulate --poses 200 --seed 0`), walked from its
-    /// first frame; reference poses should be poses the model was trained on.
+    /// shipped model's training motion (`simulate --poses 200 --seed 0 --motion brisk`),
+    /// walked from its first frame; reference poses should be poses the model was trained on.
     #[arg(long)]
     pub pose: Option<String>,
     /// The reference frames: `START..END` (END excluded), `START..=END` or `START..`.
@@ -53,8 +53,7 @@ pub struct CalibrateArgs {
 
 /// The default reference frames of the training motion: frame 1, a pose the shipped model
 /// was trained on (it held out every 10th frame, frame 0 among them). Three frames
-/// (`1..=3`) measured no better (EXPERIMENTS.md, "A fabric calibrated with simulated
-/// drapes").
+/// (`1..=3`) measured no better (book/src/experiments/calibration.md).
 const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
 
 /// Runs `calibrate`.
@@ -97,7 +96,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         );
     }
     let body = CapsuleBody::smpl_neutral();
-    let garment = Garment::tshirt(predictor.model().meta.template.resolution, &body)?;
+    let info = &predictor.model().meta.template;
+    let garment = Garment::for_template(info.resolution, &info.hash, &body)?;
     outln!(
         "draping the fabric with the simulator at {} poses (seconds each) ...",
         walk.len()

@@ -58,6 +58,13 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             if !report.is_ok() {
                 bail!("{} has problems (listed above)", dir.display());
             }
+            if !report.is_sound() {
+                outln!(
+                    "not sound: {} samples past the sound stretch (listed above): torn or \
+                     snagged drapes, not fit to learn from",
+                    report.over_stretched.len()
+                )?;
+            }
             Ok(())
         }
         DatasetCommand::Animate {

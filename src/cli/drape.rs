@@ -35,19 +35,21 @@ pub struct DrapeArgs {
     /// --omega: the model's training fabrics blended to match the fabric's simulated drape.
     #[arg(long, conflicts_with_all = ["material", "omega"])]
     pub calibration: Option<PathBuf>,
-    /// A frame of the built-in motion sequence, or a pose file (.json, .npz, .npy).
-    /// Default: the rest T-pose.
+    /// A frame of the built-in motion sequence, a pose file (.json, .npz, .npy), `everyday`
+    /// (the suite of named everyday poses: `--frame N` picks one, `--frames all` takes them
+    /// all; `garmatnet simulate --poses everyday` lists their names) or `everyday:NAME` (one
+    /// of them, e.g. `everyday:hands-on-hips`). Default: the rest T-pose.
     #[arg(long)]
     pub pose: Option<String>,
-    /// Which pose of a pose file (default 0).
+    /// Which pose of a pose file or of `--pose everyday` (default 0).
     #[arg(long, conflicts_with = "frames")]
     pub frame: Option<usize>,
     /// Predict a sequence instead of one pose: `START..END` (END excluded), `START..=END`,
-    /// `START..` or `all` of the pose file's poses (`--pose FILE`), or of the built-in
-    /// motion without `--pose`. A .glb output becomes one animation (garment and body);
-    /// .obj, .ply and .png outputs one file a frame, numbered (`drape.0012.obj`). With
-    /// `--compare`, the simulator drapes the same frames (seconds a frame) and its garment
-    /// joins the animation.
+    /// `START..` or `all` of the pose file's poses (`--pose FILE` or `--pose everyday`), or
+    /// of the built-in motion without `--pose`. A .glb output becomes one animation (garment
+    /// and body); .obj, .ply and .png outputs one file a frame, numbered (`drape.0012.obj`).
+    /// With `--compare`, the simulator drapes the same frames (seconds a frame) and its
+    /// garment joins the animation.
     #[arg(long)]
     pub frames: Option<String>,
     /// Frames per second of a `--frames` animation. Default: the pose file's own (an AMASS
@@ -169,7 +171,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             warnln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
                  on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
-                 erred about twice as much as nearer ones (README, \"The typed API\"): \
+                 erred about twice as much as nearer ones (book/src/api.md): \
                  expect a larger error",
                 model_path.display(),
                 nearest.name
@@ -232,7 +234,8 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     }
     if args.compare {
         let body_model = CapsuleBody::smpl_neutral();
-        let template = Garment::tshirt(predictor.model().meta.template.resolution, &body_model)?;
+        let info = &predictor.model().meta.template;
+        let template = Garment::for_template(info.resolution, &info.hash, &body_model)?;
         let sim = simulate_drape(
             &template,
             &body_model,
@@ -371,9 +374,10 @@ fn compare_sequence(
     garments: &[TriMesh],
     predict_ms: f64,
 ) -> Result<Vec<TriMesh>> {
-    let template = Garment::tshirt(predictor.model().meta.template.resolution, body)?;
+    let info = &predictor.model().meta.template;
+    let template = Garment::for_template(info.resolution, &info.hash, body)?;
     // From the rest drape to the first frame, then frame to frame, as datasets are made: the
-    // drapes depend on that path (README, "The ground truth's noise floor").
+    // drapes depend on that path (book/src/solver.md, "The ground truth's noise floor").
     outln!(
         "simulating {} frames (rest pose, then each frame in turn; seconds a frame) ...",
         frames.len()

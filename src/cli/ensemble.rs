@@ -9,7 +9,7 @@ use garmatnet::train::{Split, split_path};
 
 /// The most members an ensemble takes. Its merged layer is block-diagonal over the members,
 /// so the model file and each prediction grow with the square of the member count, while
-/// the error stops falling after a handful of members (EXPERIMENTS.md, "Ensembles").
+/// the error stops falling after a handful of members (book/src/experiments/ensembles.md).
 pub const MAX_MEMBERS: usize = 16;
 
 /// Average models trained with different seeds into one model (the mean of their

@@ -30,6 +30,23 @@ pub struct EvalArgs {
     /// Skip the figures (plots, heat maps, PLY).
     #[arg(long)]
     pub no_figures: bool,
+    /// A held-out dataset to report on whole, as `NAME=DIR` (repeat for several): poses the
+    /// model never came near, e.g. `everyday=ds/everyday` (`simulate --poses everyday`) and
+    /// `held-out-motion=ds/walk7` (`simulate --motion brisk --seed 7`), draped by the
+    /// canonical protocol with the model's template.
+    #[arg(long, value_name = "NAME=DIR", value_parser = parse_held_out)]
+    pub held_out: Vec<(String, PathBuf)>,
+}
+
+fn parse_held_out(value: &str) -> Result<(String, PathBuf), String> {
+    match value.split_once('=') {
+        Some((name, dir)) if !name.trim().is_empty() && !dir.is_empty() => {
+            Ok((name.trim().to_owned(), PathBuf::from(dir)))
+        }
+        _ => Err(format!(
+            "`{value}` is not NAME=DIR: name the held-out set, e.g. everyday=ds/everyday"
+        )),
+    }
 }
 
 /// Runs the command.
@@ -40,6 +57,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         baseline: args.baseline.clone(),
         compare_model: args.compare.clone(),
         out_dir: args.report.clone(),
+        held_out: args.held_out.clone(),
     };
     let config = EvalConfig {
         device: args.device.clone(),
@@ -65,6 +83,16 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             b.fitting_mm,
             b.local_mm,
             b.whole_mm
+        )?;
+    }
+    for set in &report.held_out_sets {
+        outln!(
+            "GarMatNet ({}, {} samples): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
+            set.name,
+            set.all.samples,
+            set.all.fitting_mm,
+            set.all.local_mm,
+            set.all.whole_mm
         )?;
     }
     outln!("report written to {}", args.report.display())?;

@@ -85,7 +85,7 @@ pub fn read_settings_file<T: serde::de::DeserializeOwned>(
     if !unknown.is_empty() {
         anyhow::bail!(
             "{}: unknown setting{} {}; check the spelling against the defaults \
-             (README, \"The command line\")",
+             (book/src/cli.md)",
             path.display(),
             if unknown.len() == 1 { "" } else { "s" },
             unknown.join(", ")

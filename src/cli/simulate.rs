@@ -10,8 +10,9 @@ use garmatnet::core::{
     find_preset, presets, read_poses,
 };
 use garmatnet::sim::{
-    ArmClearance, DEFAULT_ARM_CLEARANCE, GenerateConfig, GenerateEvent, Manifest, MotionGenerator,
-    MotionPace, SequenceSettings, Shard, generate_dataset, manifest_path,
+    ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest,
+    MotionGenerator, MotionPace, PoseSampler, PoseSamplerConfig, SequenceSettings, Shard,
+    canonical_settings, everyday_poses, generate_dataset, manifest_path,
 };
 use garmatnet::train::Progress;
 
@@ -39,21 +40,35 @@ pub struct SimulateArgs {
     /// than in the cube's empty corners.
     #[arg(long, value_name = "PRESETS")]
     pub random_between: Option<String>,
-    /// The number of frames of the built-in motion sequence, or a pose file (.json, .npz, .npy).
+    /// The poses to drape: a number N of poses made by `--motion` (N independent poses by
+    /// default), `everyday` (the fixed suite of named everyday poses, for evaluation only;
+    /// their names go to `pose_names.json` in `--out`), or a pose file (.json, .npz, .npy).
     #[arg(long)]
     pub poses: String,
-    /// Seed of the built-in motion sequence.
+    /// Seed of `--poses N`: pose i of the independent poses depends on the seed and i alone
+    /// (so `--poses 300` extends `--poses 200`); a walk depends on the seed and its length.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Pace of the built-in motion: `brisk` (default; consecutive frames are distinct poses)
-    /// or `gentle` (the motion of datasets made before the brisk pace; use it to resume one).
-    #[arg(long, default_value = "brisk")]
-    pub motion: MotionPace,
-    /// Smallest gap (metres) the built-in motion keeps between the arms and the torso, so no
-    /// cloth is pinched (and torn) between them; 0 turns the check off, as datasets made
-    /// before it existed (resume those with `--arm-clearance 0`).
+    /// How `--poses N` makes its poses: `independent` (default; each pose drawn on its own
+    /// within the everyday joint limits: arms hanging to overhead, in front and behind,
+    /// elbows bent, torso bent and twisted, legs apart or mid-stride, weight shifted; no
+    /// pose with the body through itself), or a walk for animations: `brisk` (consecutive
+    /// frames distinct poses; the datasets made before independent poses were the default)
+    /// or `gentle` (datasets made before the brisk pace).
+    #[arg(long, default_value = "independent")]
+    pub motion: MotionKind,
+    /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
+    /// torso; 0 turns the check off, as datasets made before it existed (resume those with
+    /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
+    /// part instead (the body leaves the cloth a channel where parts press together).
     #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
     pub arm_clearance: f64,
+    /// How each sample is draped: `canonical` (default; ground-truth revision 3: each sample
+    /// on its own, from the fabric's rest drape along one path from the rest pose, so a drape
+    /// depends on its pose and fabric alone) or `walk` (each pose from the previous one of
+    /// the sequence, as in revisions 1 and 2; for animations).
+    #[arg(long, default_value = "canonical")]
+    pub protocol: DrapeProtocol,
     /// Template resolution: coarse, default or paper.
     #[arg(long, default_value = "default")]
     pub resolution: Resolution,
@@ -83,6 +98,45 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub quiet: bool,
 }
+
+/// How `simulate --poses N` makes its N poses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionKind {
+    /// Independent poses from [`PoseSampler`] (the default).
+    Independent,
+    /// A walk from [`MotionGenerator`] at this pace.
+    Walk(MotionPace),
+}
+
+impl std::fmt::Display for MotionKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MotionKind::Independent => f.write_str("independent"),
+            MotionKind::Walk(pace) => pace.fmt(f),
+        }
+    }
+}
+
+impl std::str::FromStr for MotionKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if s.trim().eq_ignore_ascii_case("independent") {
+            return Ok(MotionKind::Independent);
+        }
+        s.parse::<MotionPace>().map(MotionKind::Walk).map_err(|_| {
+            format!(
+                "unknown motion `{s}`: use `independent` (the default: independent poses), \
+                 `brisk` (a walk, the datasets made before independent poses) or `gentle` \
+                 (a walk, the datasets made before the brisk pace)"
+            )
+        })
+    }
+}
+
+/// The file in a dataset directory made with `--poses everyday` that names its poses, in
+/// order (a JSON list of strings).
+pub const POSE_NAMES_FILE: &str = "pose_names.json";
 
 /// Adds fabric `name` to `list` (name, material, named explicitly) unless it is there: a
 /// fabric reached again with the same ω is listed once; two of one name with different ω,
@@ -264,20 +318,31 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     if materials.is_empty() {
         bail!("--materials none leaves nothing to drape: add --random-materials N");
     }
+    // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
+    ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
+    let mut pose_names = None;
     let poses = match args.poses.parse::<usize>() {
-        Ok(0) => bail!("--poses 0: ask for at least one frame"),
+        Ok(0) => bail!("--poses 0: ask for at least one pose"),
         Ok(n) if n > MAX_GENERATED_POSES => bail!(
-            "--poses {n}: the built-in motion makes at most {MAX_GENERATED_POSES} frames (about \
-             5 s of solver time each); for a longer sequence pass a pose file"
+            "--poses {n}: --motion makes at most {MAX_GENERATED_POSES} frames (about 5 s of \
+             solver time each); for more pass a pose file"
         ),
-        Ok(n) => {
-            // Refuses a clearance outside 0 … 0.1 m with a message (the generator clamps).
-            ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
-            MotionGenerator {
+        Ok(n) => match args.motion {
+            MotionKind::Independent => PoseSampler::new(PoseSamplerConfig {
+                seed: args.seed,
+                ..PoseSamplerConfig::default()
+            })?
+            .poses(n)?,
+            MotionKind::Walk(pace) => MotionGenerator {
                 arm_clearance: args.arm_clearance,
-                ..MotionGenerator::with_pace(args.seed, n, args.motion)
+                ..MotionGenerator::with_pace(args.seed, n, pace)
             }
-            .generate()
+            .generate(),
+        },
+        Err(_) if args.poses.trim().eq_ignore_ascii_case("everyday") => {
+            let suite = everyday_poses();
+            pose_names = Some(suite.iter().map(|p| p.name).collect::<Vec<_>>());
+            suite.into_iter().map(|p| p.pose).collect()
         }
         Err(_) => read_poses(std::path::Path::new(&args.poses))
             .with_context(|| format!("reading poses from {}", args.poses))?,
@@ -301,7 +366,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                         format!("the solver settings of the dataset in {}", dir.display())
                     })?
                 }
-                None => SequenceSettings::default(),
+                None => match args.protocol {
+                    DrapeProtocol::Canonical => canonical_settings(),
+                    DrapeProtocol::Walk => SequenceSettings::default(),
+                },
             }
         }
     };
@@ -316,6 +384,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         threads: args.threads,
         shard: Shard::parse(&args.shard)?,
         reuse: args.reuse.clone(),
+        protocol: args.protocol,
     };
     let shard_materials = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
@@ -356,9 +425,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Err(e) if is_pose_mismatch(&e) && args.poses.parse::<usize>().is_ok() => {
             return Err(e).context(format!(
                 "{} was made with other poses than `--poses {} --motion {} --seed {} \
-                 --arm-clearance {}` gives; resume it with the pace, seed and clearance it was \
-                 made with (datasets made before the arm clearance existed: `--arm-clearance 0`; \
-                 before the brisk pace: also `--motion gentle`)",
+                 --arm-clearance {}` gives; resume it with the motion, seed and clearance it \
+                 was made with (walks made before independent poses were the default: \
+                 `--motion brisk`; before the arm clearance existed: also `--arm-clearance 0`; \
+                 before the brisk pace: `--motion gentle --arm-clearance 0`)",
                 args.out.display(),
                 args.poses,
                 args.motion,
@@ -368,6 +438,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         }
         other => other?,
     };
+    if let Some(names) = &pose_names {
+        let text = serde_json::to_string_pretty(names)?;
+        garmatnet::core::write_bytes_atomic(args.out.join(POSE_NAMES_FILE), text.as_bytes())
+            .context("writing the everyday poses' names")?;
+    }
     outln!(
         "{}: wrote {} samples ({} already done, {} of them copied from --reuse; {} in this shard), {} not converged; {:.0} ms per sample per worker, {:.1} s in all",
         args.out.display(),

@@ -57,33 +57,6 @@ impl Capsule {
     }
 }
 
-/// A capsule's geometry in the frame it is queried in (rest or posed), as its exact signed
-/// distance uses it: a point `p` lies at `s = axial · normal_radial - radial · normal_axial`
-/// along the side's tangent (`axial = (p - a) · axis`, `radial` the distance from the axis);
-/// `s <= 0` is nearest the sphere at `a`, `s >= side_end` the sphere at `b`, and in between
-/// the conical side at distance `axial · normal_axial + radial · normal_radial - radius_a`.
-/// A capsule whose one sphere swallows the other is stored as the bigger sphere (`a = b`).
-/// For evaluating the distance elsewhere (the training crate's tensor version).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CapsuleGeometry {
-    /// One end (metres).
-    pub a: Vec3,
-    /// The other end (metres).
-    pub b: Vec3,
-    /// Unit axis from `a` to `b` (arbitrary when the capsule is a sphere).
-    pub axis: Vec3,
-    /// The radius at `a` (metres).
-    pub radius_a: Real,
-    /// The radius at `b` (metres).
-    pub radius_b: Real,
-    /// The side's outward normal, its component along the axis (dimensionless).
-    pub normal_axial: Real,
-    /// The side's outward normal, its component away from the axis (dimensionless).
-    pub normal_radial: Real,
-    /// Where the side ends along its tangent direction (metres; `length · normal_radial`).
-    pub side_end: Real,
-}
-
 /// A capsule with everything a distance query needs precomputed (in the frame it is queried
 /// in: rest or posed).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -143,20 +116,6 @@ impl PreparedCapsule {
             side_end: length * normal_radial,
             bound_centre: (a + b) * 0.5,
             bound_radius: length * 0.5 + radius_a.max(radius_b),
-        }
-    }
-
-    /// The geometry the distance uses, for evaluating it elsewhere.
-    pub(crate) fn geometry(&self) -> CapsuleGeometry {
-        CapsuleGeometry {
-            a: self.a,
-            b: self.b,
-            axis: self.axis,
-            radius_a: self.radius_a,
-            radius_b: self.radius_b,
-            normal_axial: self.normal_axial,
-            normal_radial: self.normal_radial,
-            side_end: self.side_end,
         }
     }
 

@@ -1,13 +1,17 @@
 //! The procedural body: tapered capsules on SMPL's skeleton, joined by a smooth union.
 //!
 //! Each capsule rides rigidly on one joint's skinning transform; the union's polynomial
-//! smooth-min fills armpits, crotch and neck. The same blend gives skinning weights, and the
-//! rest surface is meshed once (surface nets) for rendering and posed by linear blend
-//! skinning. See [`crate::smpl_capsules`] for the neutral body's capsule table.
+//! smooth-min fills armpits, crotch and neck. Limbs blend into the trunk only near the
+//! joints where they join it ([`LimbRoot`]; see [`crate::capsule_union`]), so an arm
+//! hanging beside the ribs keeps its own surface. Skinning weights come from the capsules
+//! near a point, and the rest surface is meshed once (surface nets) for rendering and posed
+//! by linear blend skinning. See [`crate::smpl_capsules`] for the neutral body's capsule
+//! table.
 
 use std::sync::{Arc, OnceLock};
 
-use crate::capsule::{Capsule, CapsuleGeometry, PreparedCapsule};
+use crate::capsule::{Capsule, PreparedCapsule};
+use crate::capsule_union::{DEFAULT_LIMB_ROOTS, LimbRoot, capsule_union, parts_of_joints};
 use crate::error::{Error, Result};
 use crate::math::{Iso3, Real, Vec3};
 use crate::mesh::TriMesh;
@@ -40,7 +44,12 @@ struct Shared {
     skeleton: Skeleton,
     capsules: Vec<Capsule>,
     blend_radius: Real,
+    limb_roots: Vec<LimbRoot>,
+    /// Each capsule's part of the union (0 the trunk, `r + 1` the limb of `limb_roots[r]`).
+    parts: Vec<u8>,
     rest: Vec<PreparedCapsule>,
+    /// The limb roots' blend balls in the rest pose (centre, reach).
+    rest_joins: Vec<(Vec3, Real)>,
     mesh: OnceLock<SkinnedMesh>,
 }
 
@@ -51,7 +60,9 @@ struct Shared {
 ///
 /// The field is the exact distance away from blends; within `blend_radius` of two capsules'
 /// meeting it is a distance bound (1-Lipschitz, gradient shorter than one before
-/// normalisation), so [`SignedDistance::project`] may need a second step there.
+/// normalisation), so [`SignedDistance::project`] may need a second step there. A limb
+/// blends into the rest of the body only within its [`LimbRoot::reach`] of the joint where
+/// it joins; elsewhere the union is hard, so a gap between an arm and the ribs stays open.
 ///
 /// ```
 /// use garmatnet_core::{CapsuleBody, Pose, SignedDistance, Vec3};
@@ -77,14 +88,34 @@ impl CapsuleBody {
     }
 
     /// A body from a skeleton and rest-pose capsules, joined with a smooth union of
-    /// `blend_radius` metres. Capsules are folded into the union in the given order.
+    /// `blend_radius` metres whose arms ([`DEFAULT_LIMB_ROOTS`]) blend into the trunk only
+    /// near the shoulders. Capsules are
+    /// folded into the union in the given order.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for an empty capsule list or a body too large to mesh
-    /// (a box past 2^27 points at [`REST_MESH_SPACING`]); the errors of
-    /// [`Capsule::validate`] for a bad capsule; [`Error::OutOfRange`] for a blend radius
-    /// that is not positive and finite.
+    /// As [`CapsuleBody::with_limb_roots`].
     pub fn new(skeleton: Skeleton, capsules: Vec<Capsule>, blend_radius: Real) -> Result<Self> {
+        Self::with_limb_roots(skeleton, capsules, blend_radius, &DEFAULT_LIMB_ROOTS)
+    }
+
+    /// As [`CapsuleBody::new`], with the limbs given by `limb_roots`: the capsules carried by
+    /// a root's joint or its descendants form that limb, which blends with the rest of the
+    /// body only within the root's reach of its joint. No roots gives one smooth union of
+    /// every capsule.
+    ///
+    /// # Errors
+    /// [`Error::InvalidArgument`] for an empty capsule list, a body too large to mesh
+    /// (a box past 2^27 points at [`REST_MESH_SPACING`]) or a root joint listed twice; the
+    /// errors of [`Capsule::validate`] for a bad capsule; [`Error::OutOfRange`] for a blend
+    /// radius that is not positive and finite, more than
+    /// [`crate::capsule_union::MAX_LIMB_ROOTS`] roots, a root joint past 23 or a reach that
+    /// is negative or not finite.
+    pub fn with_limb_roots(
+        skeleton: Skeleton,
+        capsules: Vec<Capsule>,
+        blend_radius: Real,
+        limb_roots: &[LimbRoot],
+    ) -> Result<Self> {
         if capsules.is_empty() {
             return Err(Error::InvalidArgument(
                 "a capsule body needs at least one capsule".into(),
@@ -102,6 +133,7 @@ impl CapsuleBody {
                 hint: "; 0.02 to 0.04 suits a human body".into(),
             });
         }
+        let part_of_joint = parts_of_joints(limb_roots)?;
         let identity = Iso3::identity();
         let rest: Vec<_> = capsules
             .iter()
@@ -116,11 +148,19 @@ impl CapsuleBody {
                 hi - lo
             )));
         }
+        let parts = capsules.iter().map(|c| part_of_joint[c.joint]).collect();
+        let rest_joins = limb_roots
+            .iter()
+            .map(|r| (skeleton.rest_joints()[r.joint], r.reach))
+            .collect();
         let shared = Shared {
             skeleton,
             capsules,
             blend_radius,
+            limb_roots: limb_roots.to_vec(),
+            parts,
             rest,
+            rest_joins,
             mesh: OnceLock::new(),
         };
         Ok(Self {
@@ -140,6 +180,12 @@ impl CapsuleBody {
         self.shared.blend_radius
     }
 
+    /// Where the limbs join the trunk, and how far from those joints they blend into it.
+    #[must_use]
+    pub fn limb_roots(&self) -> &[LimbRoot] {
+        &self.shared.limb_roots
+    }
+
     /// The body in `pose`: capsule ends moved once by the skinning transforms.
     #[must_use]
     pub fn pose(&self, pose: &Pose) -> PosedBody {
@@ -150,10 +196,21 @@ impl CapsuleBody {
             .iter()
             .map(|c| PreparedCapsule::new(c, &transforms[c.joint]))
             .collect();
+        let joins = self
+            .shared
+            .limb_roots
+            .iter()
+            .zip(&self.shared.rest_joins)
+            .map(|(r, (centre, reach))| {
+                let posed = transforms[r.joint] * nalgebra::Point3::from(*centre);
+                (posed.coords, *reach)
+            })
+            .collect();
         PosedBody {
             body: self.clone(),
             transforms,
             capsules,
+            joins,
         }
     }
 
@@ -187,7 +244,8 @@ impl CapsuleBody {
 
 impl SignedDistance for CapsuleBody {
     fn distance_and_gradient(&self, p: &Vec3) -> (Real, Vec3) {
-        smooth_union(&self.shared.rest, self.shared.blend_radius, p)
+        let s = &self.shared;
+        capsule_union(&s.rest, &s.parts, s.blend_radius, &s.rest_joins, p)
     }
 }
 
@@ -235,6 +293,8 @@ pub struct PosedBody {
     body: CapsuleBody,
     transforms: [Iso3; JOINT_COUNT],
     capsules: Vec<PreparedCapsule>,
+    /// The limb roots' blend balls in this pose (centre, reach).
+    joins: Vec<(Vec3, Real)>,
 }
 
 impl PosedBody {
@@ -271,17 +331,6 @@ impl PosedBody {
         }
     }
 
-    /// The posed capsules' geometry, in the body's order (the order the smooth union folds
-    /// them in; its blend radius is [`CapsuleBody::blend_radius`]): what a distance
-    /// evaluated elsewhere (the training crate's tensor energy) needs.
-    #[must_use]
-    pub fn capsule_geometry(&self) -> Vec<CapsuleGeometry> {
-        self.capsules
-            .iter()
-            .map(PreparedCapsule::geometry)
-            .collect()
-    }
-
     /// The rest body this was posed from.
     #[must_use]
     pub fn body(&self) -> &CapsuleBody {
@@ -309,40 +358,9 @@ impl PosedBody {
 
 impl SignedDistance for PosedBody {
     fn distance_and_gradient(&self, p: &Vec3) -> (Real, Vec3) {
-        smooth_union(&self.capsules, self.body.shared.blend_radius, p)
+        let s = &self.body.shared;
+        capsule_union(&self.capsules, &s.parts, s.blend_radius, &self.joins, p)
     }
-}
-
-/// The capsules' smooth union at `p`: a left fold of the quadratic polynomial smooth-min
-/// `smin(a, b) = mix(b, a, h) - k h (1 - h)`, `h = clamp(1/2 + (b - a) / 2k, 0, 1)`, whose
-/// gradient is `mix(∇b, ∇a, h)` exactly. A capsule whose bounding sphere lies `k` past the
-/// running distance cannot change the fold, so it is skipped without being evaluated.
-/// The returned gradient is the blend's own, shorter than unit inside blend regions (the
-/// union is only a distance bound there), so it is the exact derivative of the distance.
-fn smooth_union(capsules: &[PreparedCapsule], k: Real, p: &Vec3) -> (Real, Vec3) {
-    let (first, rest) = capsules
-        .split_first()
-        .unwrap_or_else(|| unreachable!("bodies have capsules"));
-    let (mut distance, mut gradient) = first.distance_and_gradient(p);
-    for c in rest {
-        let reach = distance + k + c.bound_radius;
-        if reach <= 0.0 || (p - c.bound_centre).norm_squared() >= reach * reach {
-            continue;
-        }
-        let (d, g) = c.distance_and_gradient(p);
-        let excess = d - distance;
-        if excess >= k {
-            continue;
-        }
-        if excess <= -k {
-            (distance, gradient) = (d, g);
-            continue;
-        }
-        let h = 0.5 + 0.5 * excess / k;
-        distance = d + h * (distance - d) - k * h * (1.0 - h);
-        gradient = g + (gradient - g) * h;
-    }
-    (distance, gradient)
 }
 
 /// A box enclosing every capsule's surface, the blend's bulge (at most `k / 4`) and a cell's

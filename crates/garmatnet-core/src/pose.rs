@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result, ensure_finite};
 use crate::math::{Real, UnitQuat, Vec3};
 use crate::rng::SplitMix64;
-use crate::skeleton::{JOINT_COUNT, JOINT_NAMES};
+use crate::skeleton::{JOINT_COUNT, JOINT_NAMES, MIRRORED_JOINTS};
 
 /// The length of an SMPL pose vector: 24 joints × 3 axis-angle components.
 pub const POSE_DIM: usize = JOINT_COUNT * 3;
@@ -16,6 +16,13 @@ pub const SMPLH_POSE_DIM: usize = 156;
 
 /// The largest magnitude (radians) [`Pose::validate`] accepts for an axis-angle component.
 pub const MAX_POSE_COMPONENT: Real = 1e3;
+
+/// How far (radians) [`Pose::a_pose`] lowers each upper arm below horizontal: 45°, an
+/// everyday relaxed A-pose.
+pub const A_POSE_SHOULDER_ANGLE: Real = std::f64::consts::FRAC_PI_4;
+
+/// SMPL's left and right shoulder joints (the upper arms' roots).
+const SHOULDER_JOINTS: [usize; 2] = [16, 17];
 
 /// An SMPL pose θ: one axis-angle rotation (radians) per joint, relative to its parent,
 /// in SMPL's joint order; joint 0 is the global root orientation. There is no global
@@ -52,6 +59,29 @@ impl Pose {
         Self {
             axis_angle: [Vec3::zeros(); JOINT_COUNT],
         }
+    }
+
+    /// The everyday A-pose: the T-pose with both upper arms lowered by
+    /// [`A_POSE_SHOULDER_ANGLE`] about the forward (z) axis, the left (+x) shoulder by a
+    /// negative rotation and the right by a positive one. The fitted T-shirt's rest mesh is
+    /// dressed in this pose ([`crate::Garment::rest_pose`]).
+    ///
+    /// ```
+    /// use garmatnet_core::{Pose, Skeleton, Vec3};
+    /// let skeleton = Skeleton::smpl_neutral();
+    /// let joints = skeleton.posed_joints(&Pose::a_pose());
+    /// let (shoulder, elbow) = (joints[16], joints[18]);
+    /// let drop = (shoulder.y - elbow.y).atan2(elbow.x - shoulder.x);
+    /// // 45° turn on a bone that already slopes ~3° down in SMPL's T-pose.
+    /// assert!((40.0..50.0).contains(&drop.to_degrees()));
+    /// ```
+    #[must_use]
+    pub fn a_pose() -> Self {
+        let mut pose = Self::zero();
+        let [left, right] = SHOULDER_JOINTS;
+        pose.set_joint(left, Vec3::new(0.0, 0.0, -A_POSE_SHOULDER_ANGLE));
+        pose.set_joint(right, Vec3::new(0.0, 0.0, A_POSE_SHOULDER_ANGLE));
+        pose
     }
 
     /// A pose from SMPL's 72-vector.
@@ -178,6 +208,33 @@ impl Pose {
         }
     }
 
+    /// The pose mirrored through the body's sagittal plane (x → −x): left and right joints
+    /// swap ([`MIRRORED_JOINTS`]) and each axis-angle vector `(x, y, z)` becomes
+    /// `(x, −y, −z)` (an axial vector under a reflection). Exact; mirroring twice gives the
+    /// pose back (bit for bit, but for −0.0 which becomes +0.0), and a left-right symmetric
+    /// pose is its own mirror.
+    ///
+    /// ```
+    /// use garmatnet_core::{Pose, Vec3};
+    /// let mut pose = Pose::zero();
+    /// pose.set_joint(16, Vec3::new(0.1, -0.2, -1.2)); // the left arm lowered
+    /// let mirrored = pose.mirrored();
+    /// assert_eq!(mirrored.joint(17), Vec3::new(0.1, 0.2, 1.2)); // the right arm lowered
+    /// assert_eq!(mirrored.joint(16), Vec3::zeros());
+    /// assert_eq!(mirrored.mirrored(), pose);
+    /// ```
+    #[must_use]
+    pub fn mirrored(&self) -> Pose {
+        Pose {
+            axis_angle: std::array::from_fn(|j| {
+                let v = self.axis_angle[MIRRORED_JOINTS[j]];
+                // `0.0 - y`, not `-y`: a zero stays +0.0, so a symmetric pose built from
+                // zeros is its own mirror bit for bit.
+                Vec3::new(v.x, 0.0 - v.y, 0.0 - v.z)
+            }),
+        }
+    }
+
     /// The largest angle (radians) by which any joint's local rotation differs between the
     /// two poses.
     #[must_use]
@@ -263,6 +320,33 @@ impl Default for JointLimits {
 }
 
 impl JointLimits {
+    /// The limits of everyday poses ([`JointLimits::default`] with wider shoulders), within
+    /// which the independent-pose sampler of `garmatnet-sim` draws. The default limits stop
+    /// the upper arm about 75° below and 50° above the horizontal (shoulder z −1.3 … 0.9),
+    /// short of arms hanging at the sides and of arms overhead; these allow (left shoulder;
+    /// the right mirrors y and z):
+    ///
+    /// | component | default | everyday |
+    /// |---|---|---|
+    /// | x (twist about the arm) | ±0.8 | ±1.2 |
+    /// | y (forward −, back +) | −1.2 … 0.5 | −2.0 … 0.9 |
+    /// | z (down −, up +) | −1.3 … 0.9 | −1.65 … 1.6 |
+    ///
+    /// Every other joint keeps its default range. The default limits are left as they are
+    /// because the built-in walk ([`JointLimits::sample`] within them) must stay
+    /// bit-identical for datasets made with it.
+    #[must_use]
+    pub fn everyday() -> Self {
+        let mut limits = Self::default();
+        let left: ([Real; 3], [Real; 3]) = ([-1.2, -2.0, -1.65], [1.2, 0.9, 1.6]);
+        for (j, mirror) in [(16, false), (17, true)] {
+            let (lo, hi) = left;
+            limits.min[j] = if mirror { [lo[0], -hi[1], -hi[2]] } else { lo };
+            limits.max[j] = if mirror { [hi[0], -lo[1], -lo[2]] } else { hi };
+        }
+        limits
+    }
+
     /// Checks `pose` against the limits (with `tolerance` radians of slack).
     ///
     /// # Errors
@@ -376,6 +460,53 @@ mod tests {
         let q: Pose = serde_json::from_str(&s).unwrap();
         assert_eq!(p, q);
         assert!(serde_json::from_str::<Pose>("[1.0, 2.0]").is_err());
+    }
+
+    #[test]
+    fn mirroring_swaps_sides_negates_y_and_z_and_is_an_involution() {
+        let v: Vec<Real> = (0..POSE_DIM).map(|i| (i as Real * 0.37).sin()).collect();
+        let p = Pose::from_slice(&v).unwrap();
+        let m = p.mirrored();
+        assert_eq!(m.mirrored(), p);
+        // Left shoulder (16) ← right shoulder (17), y and z negated; the spine keeps its x.
+        let r = p.joint(17);
+        assert_eq!(m.joint(16), Vec3::new(r.x, -r.y, -r.z));
+        let s = p.joint(3);
+        assert_eq!(m.joint(3), Vec3::new(s.x, -s.y, -s.z));
+        // Mirroring commutes with rotation: the mirrored rotation is M R M, M = diag(-1, 1, 1).
+        let mirror = crate::math::Mat3::from_diagonal(&Vec3::new(-1.0, 1.0, 1.0));
+        for (j, &twin) in MIRRORED_JOINTS.iter().enumerate() {
+            let expected =
+                mirror * p.joint_rotation(twin).to_rotation_matrix().into_inner() * mirror;
+            let got = m.joint_rotation(j).to_rotation_matrix().into_inner();
+            assert!((expected - got).abs().max() < 1e-12, "joint {j}");
+        }
+        // The default and everyday limits are mirror symmetric: a pose within them mirrors
+        // into them.
+        for limits in [JointLimits::default(), JointLimits::everyday()] {
+            let inside = limits.sample(&mut SplitMix64::new(9), 1.0);
+            limits.validate(&inside.mirrored(), 1e-12).unwrap();
+        }
+    }
+
+    #[test]
+    fn everyday_limits_widen_only_the_shoulders() {
+        let (d, e) = (JointLimits::default(), JointLimits::everyday());
+        for j in 0..JOINT_COUNT {
+            if j == 16 || j == 17 {
+                for c in 0..3 {
+                    assert!(e.min[j][c] < d.min[j][c] && e.max[j][c] > d.max[j][c]);
+                }
+            } else {
+                assert_eq!((e.min[j], e.max[j]), (d.min[j], d.max[j]), "joint {j}");
+            }
+        }
+        // Arms hanging 85° below the horizontal fit the everyday limits, not the default.
+        let mut hanging = Pose::zero();
+        hanging.set_joint(16, Vec3::new(0.0, 0.0, -1.48));
+        hanging.set_joint(17, Vec3::new(0.0, 0.0, 1.48));
+        assert!(d.validate(&hanging, 0.0).is_err());
+        e.validate(&hanging, 0.0).unwrap();
     }
 
     #[test]

@@ -84,8 +84,10 @@ pub trait SignedDistance: Sync {
 /// is at least 0.2 long, 32 steps close all but 1e-3 of the gap; true distance fields need one.
 const PROJECTION_STEPS: usize = 32;
 
-/// The most steps of [`SignedDistance::push_outside`].
-const PUSH_STEPS: usize = 64;
+/// The most steps of [`SignedDistance::push_outside`]. In a narrow crevice between two
+/// separate parts of a hard union (an arm a few millimetres from the ribs) the steps zig-zag
+/// from one side to the other on their way out, and 64 left points a few nanometres short.
+const PUSH_STEPS: usize = 256;
 
 /// How far (metres) one step of [`SignedDistance::push_outside`] may go past the remaining
 /// gap, and so the most a pushed point can end past the clearance.

@@ -20,13 +20,33 @@
 //! little above the underarm seam, so the shoulder is covered by the sleeve tube and the
 //! armpit is a saddle where the side seam meets the underarm seam. All sizes come from the
 //! skeleton's joints plus ease, never from a body surface.
+//!
+//! # The two cuts
+//! - **Boxy** ([`GarmentStyle::Boxy`]): the construction above with generous ease (about
+//!   25 cm round the chest), a rectangular neck cut-out and sleeves along the T-pose arms.
+//!   Its mesh is bit-identical to earlier versions (the shipped model's template).
+//! - **Fitted** ([`GarmentStyle::Fitted`], the default), on the skeleton made left-right
+//!   symmetric and built for `u >= 0` then mirrored, so the mesh is exactly symmetric:
+//!   - about 2.2 cm of ease all round the chest (about 10 cm of circumference);
+//!   - a crew neck: the cells inside a half-ellipse under the top edge, as wide as the
+//!     neck plus ease and deeper in front (10 cm of pattern) than at the back (8 cm);
+//!   - a shoulder ridge sloping 12° from the neck's side down to the shoulder point;
+//!   - sleeves for the A-pose ([`crate::Pose::a_pose`]): each band column is a ring
+//!     lofted from the armhole (shoulder point over the top, armpit under it, 7 cm below
+//!     the sleeve's T-pose underarm line) to a cuff square to the A-posed upper arm at 80 %
+//!     of its length; the top seam bows out over the shoulder. The band is 26 cm tall (half
+//!     the armhole), so the sleeve tapers from the armhole to the cuff by compressing the
+//!     grid; the underarm seam is about half the pattern's length in 3-D and the top seam
+//!     about 1.3 times, which is what an angled sleeve would cut into the pattern's outline.
 
 use std::collections::{HashMap, HashSet};
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::garment_style::GarmentStyle;
 use crate::math::{Real, Vec3};
+use crate::pose::A_POSE_SHOULDER_ANGLE;
 use crate::skeleton::{Skeleton, joint_index};
 
 /// Which pattern panel a garment vertex belongs to.
@@ -65,10 +85,125 @@ struct ShirtShape {
     neck_drop_back: Real,
     /// Shoulder and elbow joints of the left (+x) and right (-x) arms.
     arm: [(Vec3, Vec3); 2],
+    /// How far the armpit (the side seam's top) sits below the sleeve's underarm line.
+    armpit_drop: Real,
+    /// The fitted cut's extra shape, `None` for the boxy shirt.
+    fitted: Option<FittedShape>,
 }
 
+/// What the fitted cut adds to the boxy construction (metres, radians).
+#[derive(Debug, Clone)]
+struct FittedShape {
+    /// Ridge (shoulder seam) height over the neck's sides; it slopes down from `x_neck` to
+    /// the shoulder point `a` by `SHOULDER_SLOPE`.
+    y_ridge_neck: Real,
+    /// The (left) sleeve's top seam runs from the shoulder point `top_start` (over the
+    /// torso's side) to the cuff's top `top_end`; its underarm seam from the armpit
+    /// `under_start` to the cuff's bottom `under_end`. The cuff ring lies square to the arm
+    /// in the A-pose.
+    top_start: Vec3,
+    top_end: Vec3,
+    under_start: Vec3,
+    under_end: Vec3,
+    /// Half-depth (z) of the armhole and radius of the cuff.
+    armhole_half_depth: Real,
+    cuff_radius: Real,
+    /// The arm's depth (z): the sleeve's mid-plane.
+    arm_z: Real,
+    /// The A-posed arm's upward normal (in the x-y plane) and how far the top seam bows
+    /// out along it halfway to the cuff.
+    arm_up: Vec3,
+    shoulder_bow: Real,
+    /// The sleeve band's height in the pattern (metres): half the sleeve's circumference.
+    sleeve_band: Real,
+}
+
+/// The fitted cut's shoulder seam slope below horizontal (radians): 12°. Real T-shirts have
+/// 15-20°; the capsule body's shoulders are square (they rise outward), and a steeper seam
+/// would float several centimetres above the neck's sides.
+const SHOULDER_SLOPE: Real = 12.0 * std::f64::consts::PI / 180.0;
+
 impl ShirtShape {
-    fn from_skeleton(skeleton: &Skeleton) -> Result<Self> {
+    fn from_skeleton(skeleton: &Skeleton, style: GarmentStyle) -> Result<Self> {
+        match style {
+            GarmentStyle::Boxy => Self::boxy(skeleton),
+            GarmentStyle::Fitted => Self::fitted(skeleton),
+        }
+    }
+
+    /// The fitted cut on the skeleton made left-right symmetric (each left joint averaged
+    /// with its mirrored right twin, centre joints on x = 0), so the shirt is exactly
+    /// mirror-symmetric.
+    fn fitted(skeleton: &Skeleton) -> Result<Self> {
+        let j = skeleton.rest_joints();
+        let at = |name: &str| j[joint_index(name).expect("SMPL joint names are fixed")];
+        let twin = |left: &str| {
+            let (l, r) = (at(left), at(&left.replace("left", "right")));
+            Vec3::new(0.5 * (l.x - r.x), 0.5 * (l.y + r.y), 0.5 * (l.z + r.z))
+        };
+        let (ls, le) = (twin("left_shoulder"), twin("left_elbow"));
+        let span = 2.0 * ls.x;
+        if !(0.1..=1.0).contains(&span) || le.x <= ls.x {
+            return Err(Error::InvalidArgument(format!(
+                "the T-shirt needs a T-pose skeleton with the left arm along +x and shoulders \
+                 0.1-1 m apart; got shoulders {span:.3} m apart"
+            )));
+        }
+        let spine = ["pelvis", "spine1", "spine2", "spine3", "neck"];
+        let zc = spine.iter().map(|n| at(n).z).sum::<Real>() / spine.len() as Real;
+        let neck_y = at("neck").y;
+        // Regular fit: ~2.2 cm off SMPL's mean chest all round (about 10 cm of circumference
+        // ease), 2 cm round the upper arm, a crew neck 1.5-2 cm off the neck's base.
+        let a = 0.47 * span + 0.022;
+        let sleeve_radius = 0.16 * span + 0.019;
+        let x_neck = 0.22 * span;
+        let y_sleeve_top = ls.y + sleeve_radius;
+        let y_ridge_neck = y_sleeve_top + SHOULDER_SLOPE.tan() * (a - x_neck);
+        let right = |v: Vec3| Vec3::new(-v.x, v.y, v.z);
+        let armpit_drop = 0.07;
+        // The A-posed arm: the upper arm turned down about the shoulder joint.
+        let (sin, cos) = A_POSE_SHOULDER_ANGLE.sin_cos();
+        let bone = le - ls;
+        let along = Vec3::new(
+            bone.x * cos + bone.y * sin,
+            -bone.x * sin + bone.y * cos,
+            0.0,
+        )
+        .normalize();
+        let up = Vec3::new(-along.y, along.x, 0.0);
+        let cuff_radius = sleeve_radius - 0.01;
+        let cuff_centre = Vec3::new(ls.x, ls.y, zc) + along * (0.8 * bone.norm());
+        Ok(Self {
+            a,
+            c: 0.315 * span + 0.024,
+            zc,
+            y_hem: at("pelvis").y - 0.05,
+            y_ridge_centre: y_ridge_neck,
+            cap_height: 0.12,
+            sleeve_radius,
+            x_cuff: ls.x + 0.8 * (le.x - ls.x),
+            x_neck,
+            neck_drop_front: 0.1,
+            neck_drop_back: 0.08,
+            arm: [(ls, le), (right(ls), right(le))],
+            armpit_drop,
+            fitted: Some(FittedShape {
+                y_ridge_neck: y_ridge_neck.max(neck_y),
+                top_start: Vec3::new(a, y_sleeve_top, zc),
+                top_end: cuff_centre + up * cuff_radius,
+                under_start: Vec3::new(a, ls.y - sleeve_radius - armpit_drop, zc),
+                under_end: cuff_centre - up * cuff_radius,
+                armhole_half_depth: sleeve_radius + 0.01,
+                cuff_radius,
+                arm_z: ls.z,
+                arm_up: up,
+                shoulder_bow: 0.015,
+                sleeve_band: 0.26,
+            }),
+        })
+    }
+
+    fn boxy(skeleton: &Skeleton) -> Result<Self> {
         let j = skeleton.rest_joints();
         let at = |name: &str| j[joint_index(name).expect("SMPL joint names are fixed")];
         let (ls, rs) = (at("left_shoulder"), at("right_shoulder"));
@@ -98,6 +233,8 @@ impl ShirtShape {
             neck_drop_front: 0.16,
             neck_drop_back: 0.1,
             arm: [(ls, le), (rs, re)],
+            armpit_drop: 0.025,
+            fitted: None,
         })
     }
 
@@ -218,11 +355,13 @@ pub(crate) struct TshirtPattern {
     pub panels: Vec<Panel>,
     pub faces: Vec<[u32; 3]>,
     pub grid: PanelGrid,
+    /// Each vertex's mirror twin: the vertex at the same panel's grid point `(-i, j)`.
+    pub mirror: Vec<u32>,
 }
 
 impl TshirtPattern {
-    /// Builds the pattern on a grid of `spacing` metres for `skeleton`'s T-pose.
-    pub fn build(skeleton: &Skeleton, spacing: Real) -> Result<Self> {
+    /// Builds the pattern of `style` on a grid of `spacing` metres for `skeleton`.
+    pub fn build(skeleton: &Skeleton, spacing: Real, style: GarmentStyle) -> Result<Self> {
         if !(0.003..=0.1).contains(&spacing) {
             return Err(Error::OutOfRange {
                 what: "T-shirt grid spacing (m)".into(),
@@ -232,13 +371,18 @@ impl TshirtPattern {
                 hint: String::new(),
             });
         }
-        let shape = ShirtShape::from_skeleton(skeleton)?;
+        let shape = ShirtShape::from_skeleton(skeleton, style)?;
         let ellipse = QuarterEllipse::new(shape.a, shape.c);
         let h = spacing;
         let cells_of = |len: Real| ((len / h).round() as i32).max(1);
         let it = cells_of(ellipse.length());
         let ic = it + cells_of(shape.x_cuff - shape.a);
-        let js = cells_of(std::f64::consts::PI * shape.sleeve_radius);
+        // The fitted sleeve's band is as tall as the torso's path from the armpit over the
+        // shoulder to the seam (its armhole), less the taper to the cuff.
+        let js = match &shape.fitted {
+            None => cells_of(std::f64::consts::PI * shape.sleeve_radius),
+            Some(f) => cells_of(f.sleeve_band),
+        };
         let cap_arc = QuarterEllipse::new(shape.c, shape.cap_height).length();
         let jt = cells_of(cap_arc + shape.y_ridge_centre - shape.cap_height - shape.y_hem);
         let i_neck = cells_of(ellipse.arc_at((shape.x_neck / shape.a).clamp(-1.0, 1.0).asin()));
@@ -258,9 +402,21 @@ impl TshirtPattern {
             let sleeve = (-ic..ic).contains(&i) && (jt - js..jt).contains(&j);
             torso || sleeve
         };
-        let in_panel = |side: usize, (i, j): GridPoint| {
-            in_t((i, j)) && !((-i_neck..i_neck).contains(&i) && j >= jt - drops[side])
+        // The crew neck: cells whose centre lies inside a half-ellipse under the top edge,
+        // as wide as the neck opening and as deep as the side's drop.
+        let neck_width = Real::from(i_neck) * h;
+        let round_neck = shape.fitted.is_some();
+        let neck_depths = [shape.neck_drop_front, shape.neck_drop_back];
+        let in_neck = |side: usize, (i, j): GridPoint| {
+            if round_neck {
+                let across = (Real::from(i) + 0.5) * h / neck_width;
+                let down = (Real::from(jt - j) - 0.5) * h / neck_depths[side];
+                across * across + down * down < 1.0
+            } else {
+                (-i_neck..i_neck).contains(&i) && j >= jt - drops[side]
+            }
         };
+        let in_panel = |side: usize, p: GridPoint| in_t(p) && !in_neck(side, p);
         let mut cells = [HashSet::new(), HashSet::new()];
         let mut seam_edges = HashSet::new();
         for j in 0..jt {
@@ -274,7 +430,7 @@ impl TshirtPattern {
                     continue;
                 }
                 // Outline edges of the T, minus the openings, are the seams.
-                let neck_top = j == jt - 1 && (-i_neck..i_neck).contains(&i);
+                let neck_top = j == jt - 1 && (in_neck(0, (i, j)) || in_neck(1, (i, j)));
                 if j > 0 && !in_t((i, j - 1)) {
                     seam_edges.insert(((i, j), (i + 1, j)));
                 }
@@ -359,6 +515,14 @@ impl TshirtPattern {
                 }
             }
         }
+        let mut mirror = vec![u32::MAX; vertices.len()];
+        for side in &index {
+            for (&(i, j), &v) in side {
+                mirror[v as usize] = *side.get(&(-i, j)).ok_or_else(|| {
+                    Error::InvalidMesh(format!("the pattern has no mirror twin of ({i}, {j})"))
+                })?;
+            }
+        }
         let grid = PanelGrid {
             ic,
             jt,
@@ -372,6 +536,7 @@ impl TshirtPattern {
             panels,
             faces,
             grid,
+            mirror,
         })
     }
 }
@@ -389,6 +554,48 @@ struct Geometry<'a> {
 
 impl Geometry<'_> {
     fn position(&self, side: usize, (i, j): GridPoint, seam: bool) -> Vec3 {
+        match &self.shape.fitted {
+            None => self.boxy_position(side, (i, j), seam),
+            Some(_) => {
+                // One half, mirrored bit for bit: the fitted shirt is exactly symmetric.
+                let p = self.boxy_position(side, (i.abs(), j), seam);
+                if i < 0 { Vec3::new(-p.x, p.y, p.z) } else { p }
+            }
+        }
+    }
+
+    /// The fitted sleeve's point at unrolled `x` (left half) and `round` in `[0, 1]` (top
+    /// seam to underarm seam): a ring lofted from the armhole (over the torso's side) to the
+    /// cuff (square to the A-posed arm), carried flat inward past the armhole. Returns x and
+    /// y, and the half-depth off the seam plane in z (never thinner than `torso_depth`).
+    fn fitted_sleeve(&self, f: &FittedShape, x: Real, round: Real, torso_depth: Real) -> Vec3 {
+        let s = self.shape;
+        let length = s.x_cuff - s.a;
+        let t = (x - s.a) / length;
+        let (top, under) = if t < 0.0 {
+            let inward = Vec3::new(x - s.a, 0.0, 0.0);
+            (f.top_start + inward, f.under_start + inward)
+        } else {
+            // The top seam bows out over the round of the shoulder.
+            let bow = f.shoulder_bow * 4.0 * t.min(1.0) * (1.0 - t).max(0.0);
+            (
+                f.top_start + (f.top_end - f.top_start) * t + f.arm_up * bow,
+                f.under_start + (f.under_end - f.under_start) * t,
+            )
+        };
+        let t = t.clamp(0.0, 1.0);
+        let half_depth = f.armhole_half_depth + (f.cuff_radius - f.armhole_half_depth) * t;
+        let phi = std::f64::consts::PI * round;
+        let centre = (top + under) * 0.5;
+        let p = centre + (top - under) * (0.5 * phi.cos());
+        Vec3::new(
+            p.x,
+            p.y,
+            smooth_max(torso_depth, half_depth * phi.sin().max(0.0)),
+        )
+    }
+
+    fn boxy_position(&self, side: usize, (i, j): GridPoint, seam: bool) -> Vec3 {
         let s = self.shape;
         let (u, v) = (Real::from(i) * self.h, Real::from(j) * self.h);
         let sign = if u < 0.0 { -1.0 } else { 1.0 };
@@ -403,13 +610,20 @@ impl Geometry<'_> {
         let theta = sign * self.ellipse.angle_at(u.abs() / ut * self.ellipse.length());
         let x_torso = s.a * theta.sin() + sign * (u.abs() - ut).max(0.0);
         let x_rel = (x_torso / s.a).clamp(-1.0, 1.0);
-        let ridge =
-            s.sleeve_top(sign) + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel);
+        let ridge = match &s.fitted {
+            None => {
+                s.sleeve_top(sign) + (s.y_ridge_centre - s.sleeve_top(sign)) * (1.0 - x_rel * x_rel)
+            }
+            Some(f) => {
+                let beyond_neck = (x_torso.abs().min(s.a) - s.x_neck).max(0.0);
+                f.y_ridge_neck - SHOULDER_SLOPE.tan() * beyond_neck
+            }
+        };
         let psi = std::f64::consts::FRAC_PI_2 * (depth_down / self.cap_arc).min(1.0);
         // Below the cap the torso is straight, piecewise linear in v so the armpit row
         // and the hem are level: the armpit sits below the sleeve's underarm line.
         let cap_end = ridge - s.cap_height;
-        let y_armpit = s.arm_axis(sign * s.a).y - s.sleeve_radius - 0.025;
+        let y_armpit = s.arm_axis(sign * s.a).y - s.sleeve_radius - s.armpit_drop;
         let below_cap = depth_down - self.cap_arc;
         let y_torso = if below_cap <= 0.0 {
             ridge - s.cap_height * (1.0 - psi.cos())
@@ -431,6 +645,20 @@ impl Geometry<'_> {
             let past_side = smoothstep((u.abs() - ut) / (band / 3.0));
             across * (above_armpit + past_side).min(1.0)
         };
+        if let Some(f) = &s.fitted
+            && weight > 0.0
+        {
+            // Seams lie where the panels meet: the torso's mid-plane blended to the arm's.
+            let front = if side == 0 { 1.0 } else { -1.0 };
+            let torso_point = Vec3::new(torso.0.x, torso.0.y, s.zc + front * torso.1);
+            let sleeve = self.fitted_sleeve(f, x_torso, depth_down / band, torso.1);
+            let sleeve_point = Vec3::new(sleeve.x, sleeve.y, f.arm_z + front * sleeve.z);
+            let mut p = torso_point + (sleeve_point - torso_point) * weight;
+            if seam {
+                p.z = s.zc + (f.arm_z - s.zc) * weight;
+            }
+            return p;
+        }
         let (centre, half_depth) = if weight > 0.0 {
             // Sleeve: circular cylinder around the arm bone, v going round it from the
             // top seam (phi = 0) over the front/back to the underarm seam (phi = pi). It

@@ -1,13 +1,18 @@
 //! The T-shirt template against the real capsule body (the garment's unit tests use a
 //! stand-in body so the two could be developed apart; this pins that they fit together).
 
-use garmatnet_core::{CapsuleBody, Garment, Resolution, SignedDistance, SkinnedBody};
+use garmatnet_core::{CapsuleBody, Garment, GarmentStyle, Resolution, SignedDistance, SkinnedBody};
 
 #[test]
 fn every_resolution_sits_outside_the_body_with_ease() -> anyhow::Result<()> {
-    let body = CapsuleBody::smpl_neutral();
-    for resolution in Resolution::ALL {
-        let shirt = Garment::tshirt(resolution, &body)?;
+    let rest_body = CapsuleBody::smpl_neutral();
+    for (style, resolution) in GarmentStyle::ALL
+        .into_iter()
+        .flat_map(|g| Resolution::ALL.map(|r| (g, r)))
+    {
+        let shirt = Garment::with_style(style, resolution, &rest_body)?;
+        // The shirt fits the body in its rest pose (the A-pose for the fitted cut).
+        let body = rest_body.pose(&shirt.rest_pose);
         let clearance = shirt
             .rest
             .vertices
@@ -29,13 +34,15 @@ fn every_resolution_sits_outside_the_body_with_ease() -> anyhow::Result<()> {
             farthest < 0.12,
             "{resolution}: a vertex is {farthest} m off the body"
         );
-        // Anchors lie on the body surface and are skinned to real joints.
-        for a in &shirt.anchors {
-            assert!(body.distance(&a.rest_point).abs() < 2e-3);
+        // Anchors, carried to the rest pose, lie on the body surface and are skinned to real
+        // joints.
+        let transforms = rest_body.skeleton().skinning_transforms(&shirt.rest_pose);
+        for (a, p) in shirt.anchors.iter().zip(shirt.body_points(&transforms)) {
+            assert!(body.distance(&p).abs() < 2e-3, "{style} {resolution}");
             let sum: f64 = a.weights.iter().map(|w| w.1).sum();
             assert!((sum - 1.0).abs() < 1e-9);
         }
-        assert_eq!(body.skeleton().rest_joints().len(), 24);
+        assert_eq!(rest_body.skeleton().rest_joints().len(), 24);
     }
     Ok(())
 }

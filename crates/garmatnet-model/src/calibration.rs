@@ -2,7 +2,7 @@
 //!
 //! The nets take a fabric as its 6-d ω, and between their training fabrics they interpolate
 //! in ω, which says little about how a fabric drapes: on Table 2's unseen fabrics most of
-//! the error is this fabric term (README, "The shipped model and Table 2"). One simulated
+//! the error is this fabric term (book/src/results.md). One simulated
 //! drape of the fabric says more. A [`FabricCalibration`] describes the fabric as a blend of
 //! the nets' prediction for its own ω and their predictions for the model's training
 //! fabrics, with weights fitted once so that the blend reproduces a simulated drape `D` at
@@ -64,7 +64,7 @@ use crate::tensor_util::{matrix, to_f32};
 pub const CALIBRATION_VERSION: u32 = 1;
 
 /// The ridge weight λ of [`CalibrationSettings::default`]; see the module docs for the
-/// problem it weights and EXPERIMENTS.md ("A fabric calibrated with one simulated drape")
+/// problem it weights and book/src/experiments/calibration.md
 /// for how it was chosen.
 pub const DEFAULT_RIDGE: Real = 0.1;
 
@@ -321,8 +321,7 @@ impl Predictor {
     /// Choose reference poses at which the nets are accurate, such as poses of their training
     /// motion: the weights fit the whole gap between prediction and drape there, and a gap
     /// the nets would have for any fabric (at an unusual pose) is then carried to every pose
-    /// as if the fabric made it (EXPERIMENTS.md, "A fabric calibrated with simulated
-    /// drapes").
+    /// as if the fabric made it (book/src/experiments/calibration.md).
     ///
     /// # Errors
     /// [`Error::Calibration`] if the model file records no training fabrics (models trained

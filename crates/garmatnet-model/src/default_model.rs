@@ -48,7 +48,8 @@ impl Predictor {
         }
         let model = GarMatNetModel::load(path, device)?;
         let body = CapsuleBody::smpl_neutral();
-        let garment = Garment::tshirt(model.meta.template.resolution, &body)?;
+        let template = &model.meta.template;
+        let garment = Garment::for_template(template.resolution, &template.hash, &body)?;
         Self::for_garment(model, &garment, body, device)
     }
 

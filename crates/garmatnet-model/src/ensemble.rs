@@ -2,8 +2,7 @@
 //!
 //! Nets trained from different random initialisations on the same data disagree most where
 //! they have seen least — at poses between the training poses — and their mean errs less
-//! than any of them (measured in EXPERIMENTS.md, "Ensembles, and what limits
-//! generalisation to unseen poses"). Averaging K members of the
+//! than any of them (measured in book/src/experiments/ensembles.md). Averaging K members of the
 //! paper's architecture is exactly another, K-times wider net of the same architecture:
 //!
 //! - the pose and material branches are the members' branches side by side;

@@ -315,7 +315,7 @@ impl Predictor {
     /// error grows with the distance to the nearest one: on Table 2's four targets it was
     /// 8.2 mm at 0.07 and 16–21 mm at 0.33–0.46, against 8.2 mm for the training fabrics
     /// themselves at poses the model never saw; at [`crate::FAR_FROM_TRAINING`] and beyond,
-    /// expect about twice the error (README, "The typed API").
+    /// expect about twice the error (book/src/api.md).
     #[must_use]
     pub fn nearest_training_fabric(&self, material: &Material) -> Option<(&TrainingFabric, Real)> {
         let omega = material.to_normalized();
@@ -435,7 +435,7 @@ impl Predictor {
     /// pushed out of its posed body as [`Predictor::predict`] pushes one. The same meshes as
     /// one `predict` call per pose (to float rounding), with the nets' share of the time cut
     /// by batching, so the push-out is most of what a frame costs (`garmatnet drape
-    /// --frames` uses it; figures in README, "The command line"). Holds every mesh at once;
+    /// --frames` uses it; figures in book/src/cli.md). Holds every mesh at once;
     /// [`Predictor::sequence`] yields the same meshes one at a time, for captures too long
     /// to keep in memory.
     ///

@@ -8,7 +8,7 @@
 //! (one after the other, on one thread). A setting is `default` or a JSON
 //! object of the `SequenceSettings` fields to change, e.g.
 //! `'{"drape": {"residual_tolerance": 0.01, "max_residual_tolerance": 0.5}}'`: what a solver
-//! change costs in drape accuracy, measured the way the README's "measured and not adopted"
+//! change costs in drape accuracy, measured the way book/src/solver.md's "measured and not adopted"
 //! figures are.
 
 use garmatnet_core::{CapsuleBody, Garment, Material, Resolution, Vec3};

@@ -174,7 +174,7 @@ impl ArmClearance {
 
 /// The parameters (s, t) ∈ [0, 1]² of the closest points of segments p1–q1 and p2–q2
 /// (Ericson, *Real-Time Collision Detection*, §5.1.9).
-fn closest_parameters(p1: Vec3, q1: Vec3, p2: Vec3, q2: Vec3) -> (Real, Real) {
+pub(crate) fn closest_parameters(p1: Vec3, q1: Vec3, p2: Vec3, q2: Vec3) -> (Real, Real) {
     const EPS: Real = 1e-12;
     let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
     let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));

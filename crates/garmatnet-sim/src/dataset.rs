@@ -352,6 +352,13 @@ pub(crate) fn compare_specs(
             revision_label(new.ground_truth_revision),
         ));
     }
+    if existing.protocol != new.protocol {
+        return Err(differs(
+            "drape protocol (a dataset holds one protocol's drapes)",
+            existing.protocol.name().to_owned(),
+            new.protocol.name().to_owned(),
+        ));
+    }
     if existing.template != new.template {
         return Err(differs(
             "template",
@@ -480,6 +487,7 @@ pub(crate) mod tests {
                 weights: "uniform".into(),
             },
             ground_truth_revision: Some(crate::GROUND_TRUTH_REVISION),
+            protocol: Default::default(),
         }
     }
 

@@ -1,11 +1,17 @@
 //! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body,
 //! written as a resumable, shardable dataset ([`crate::dataset`]).
 //!
-//! Materials run in parallel (rayon), each walking the whole pose sequence in order so every
-//! pose is warm-started from the previous one ([`drape_sequence`]). A material whose first
-//! `k` poses are on disk resumes from pose `k - 1`'s saved garment, and because sequences
-//! round their state to the f32 precision samples are stored in, the resumed run writes the
-//! same bytes an uninterrupted run would (tested).
+//! Under the [canonical protocol](DrapeProtocol::Canonical) (revision 3, the default of
+//! `garmatnet simulate`) each sample is draped on its own from its material's rest drape
+//! ([`CanonicalDraper`]); the workers take samples pose-major (every material's first pose,
+//! then every material's second, ...), so an interrupted run leaves a smaller dataset whose
+//! materials share a prefix of the poses, and a resumed run drapes exactly the samples not
+//! on disk. Materials run in parallel (rayon). Under the
+//! [walk](DrapeProtocol::Walk) each material walks the whole pose sequence in order, every
+//! pose warm-started from the previous one ([`drape_sequence`]); a material whose first `k`
+//! poses are on disk resumes from pose `k - 1`'s saved garment. Both round their state to the
+//! f32 precision samples are stored in, so a resumed, sharded or differently threaded run
+//! writes the same bytes an uninterrupted one would (tested).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,6 +23,7 @@ use garmatnet_core::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::canonical::{CanonicalDraper, DrapeProtocol};
 use crate::dataset::{DatasetWriter, samples_dir};
 use crate::drape_solver::DrapeStats;
 use crate::error::{Error, Result};
@@ -52,6 +59,18 @@ impl SampleDeriver {
     pub fn new(resolution: Resolution, smoothing: SmoothingSettings) -> Result<Self> {
         let body = CapsuleBody::smpl_neutral();
         let garment = Garment::tshirt(resolution, &body)?;
+        Self::with_garment(body, garment, smoothing)
+    }
+
+    /// The deriver for `garment` on `body` with `smoothing`.
+    ///
+    /// # Errors
+    /// [`Error::Core`] if the smoother cannot be built.
+    pub fn with_garment(
+        body: CapsuleBody,
+        garment: Garment,
+        smoothing: SmoothingSettings,
+    ) -> Result<Self> {
         let smoother = LaplacianSmoother::new(&garment.rest, smoothing)?;
         Ok(Self {
             body,
@@ -96,7 +115,14 @@ impl SampleDeriver {
             iterations: spec.smoothing.iterations as usize,
             weights,
         };
-        let deriver = Self::new(resolution, smoothing)?;
+        let body = CapsuleBody::smpl_neutral();
+        // The style (fitted or boxy) is the one whose hash the spec records; a hash no style
+        // has is reported below with the fitted shirt's.
+        let garment = match Garment::for_template(resolution, &spec.template.hash, &body) {
+            Ok(garment) => garment,
+            Err(_) => Garment::tshirt(resolution, &body)?,
+        };
+        let deriver = Self::with_garment(body, garment, smoothing)?;
         let hash = format!("{:016x}", deriver.garment.template_hash());
         if deriver.garment.vertex_count() != spec.template.vertex_count
             || hash != spec.template.hash
@@ -161,6 +187,10 @@ pub struct GenerateConfig {
     pub resolution: Resolution,
     /// Solver and sequence-walking settings.
     pub sequence: SequenceSettings,
+    /// How each sample is draped: [`DrapeProtocol::Canonical`] (each on its own, from the
+    /// rest drape; revision 3's datasets) or [`DrapeProtocol::Walk`] (each from the previous
+    /// pose of its material's walk).
+    pub protocol: DrapeProtocol,
     /// The smoothing that splits drapes into smooth garment and details.
     pub smoothing: SmoothingSettings,
     /// Worker threads (materials in parallel); 0 = rayon's default (all cores).
@@ -263,6 +293,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
             weights: format!("{:?}", config.smoothing.weights).to_lowercase(),
         },
         ground_truth_revision: Some(GROUND_TRUTH_REVISION),
+        protocol: config.protocol,
     })
 }
 
@@ -296,13 +327,17 @@ pub fn generate_dataset(
     let shard_samples = materials.len() * config.poses.len();
     // A material's walk resumes at its first unfinished pose and drapes every pose after it
     // (the walk is continuous), so finished samples past a gap are written again: only the
-    // poses before that first gap are skipped.
+    // poses before that first gap are skipped. Canonical samples stand alone: every finished
+    // one is skipped.
     let skipped: usize = materials
         .iter()
-        .map(|&m| {
-            (0..config.poses.len())
+        .map(|&m| match config.protocol {
+            DrapeProtocol::Walk => (0..config.poses.len())
                 .find(|&p| !writer.is_done(m, p))
-                .unwrap_or(config.poses.len())
+                .unwrap_or(config.poses.len()),
+            DrapeProtocol::Canonical => (0..config.poses.len())
+                .filter(|&p| writer.is_done(m, p))
+                .count(),
         })
         .sum();
     on_progress(GenerateEvent::Started {
@@ -310,7 +345,29 @@ pub fn generate_dataset(
         done: skipped,
     });
 
-    let run_material = |m: usize| -> Result<(usize, usize, f64)> {
+    // Writes one draped sample with its derived arrays and reports it.
+    let record = |m: usize, p: usize, x: &[Vec3], stats: &DrapeStats, sample_ms: f64| {
+        let arrays = deriver.arrays(x, &config.poses[p])?;
+        let sample_stats = SampleStats {
+            iterations: stats.iterations as u64,
+            residual: stats.final_residual,
+            max_penetration_m: stats.max_penetration,
+            max_depth_before_projection_m: Some(stats.max_depth_before_projection),
+            max_strain: stats.max_strain,
+            wall_time_ms: sample_ms,
+            converged: stats.converged,
+        };
+        writer.write_sample(m, p, &arrays, sample_stats)?;
+        on_progress(GenerateEvent::Sample(SampleDone {
+            material: m,
+            pose: p,
+            converged: stats.converged,
+            wall_time_ms: sample_ms,
+        }));
+        Ok::<(), Error>(())
+    };
+
+    let walk_material = |m: usize| -> Result<(usize, usize, f64)> {
         let n_poses = config.poses.len();
         let Some(next) = (0..n_poses).find(|&p| !writer.is_done(m, p)) else {
             return Ok((0, 0, 0.0));
@@ -332,26 +389,10 @@ pub fn generate_dataset(
                 return Err(Error::Interrupted);
             }
             let sample_ms = last.elapsed().as_secs_f64() * 1e3;
-            let arrays = deriver.arrays(x, &config.poses[p])?;
-            let sample_stats = SampleStats {
-                iterations: stats.iterations as u64,
-                residual: stats.final_residual,
-                max_penetration_m: stats.max_penetration,
-                max_depth_before_projection_m: Some(stats.max_depth_before_projection),
-                max_strain: stats.max_strain,
-                wall_time_ms: sample_ms,
-                converged: stats.converged,
-            };
-            writer.write_sample(m, p, &arrays, sample_stats)?;
+            record(m, p, x, stats, sample_ms)?;
             written += 1;
             failed += usize::from(!stats.converged);
             time += sample_ms;
-            on_progress(GenerateEvent::Sample(SampleDone {
-                material: m,
-                pose: p,
-                converged: stats.converged,
-                wall_time_ms: sample_ms,
-            }));
             last = Instant::now();
             Ok(())
         };
@@ -367,23 +408,40 @@ pub fn generate_dataset(
         Ok((written, failed, time))
     };
 
-    let results: Vec<Result<(usize, usize, f64)>> = if config.threads == 1 {
-        materials.iter().map(|&m| run_material(m)).collect()
-    } else {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(config.threads)
-            .build()
-            .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(config.threads)
+        .build()
+        .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
+    let results: Vec<Result<(usize, usize, f64)>> = match config.protocol {
         // One material per task: rayon may otherwise hand a worker a run of several
         // materials to walk sequentially while the other workers sit idle at the end
         // (seen: the last two materials of a 30-material run on one worker of two).
-        pool.install(|| {
+        DrapeProtocol::Walk => pool.install(|| {
             materials
                 .par_iter()
                 .with_max_len(1)
-                .map(|&m| run_material(m))
+                .map(|&m| walk_material(m))
                 .collect()
-        })
+        }),
+        DrapeProtocol::Canonical => {
+            let drape = |m: usize, p: usize, draper: &CanonicalDraper| {
+                let started = Instant::now();
+                let (x, stats) = draper.drape(&config.poses[p])?;
+                let sample_ms = started.elapsed().as_secs_f64() * 1e3;
+                record(m, p, &x, &stats, sample_ms)?;
+                Ok((stats.converged, sample_ms))
+            };
+            vec![canonical_samples(
+                &pool,
+                config,
+                garment,
+                body,
+                &materials,
+                &|m, p| writer.is_done(m, p),
+                &drape,
+                should_stop,
+            )]
+        }
     };
     writer.flush()?;
     let mut report = GenerateReport {
@@ -416,4 +474,99 @@ pub fn generate_dataset(
     };
     report.wall_time_s = started.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// Drapes every unfinished canonical sample of `materials`, pose-major: all materials' first
+/// pose, then their second, and so on, handed out one at a time from a shared queue, so an
+/// interrupted run leaves every material with the same prefix of poses (a smaller dataset
+/// that can already be trained on) rather than some materials finished and others not
+/// begun. A material's rest drape ([`CanonicalDraper::new`]) is made once, by the first
+/// worker that needs it; its cost is shared equally among the material's samples in the
+/// returned time. Returns (written, not converged, summed sample milliseconds).
+#[allow(clippy::too_many_arguments)]
+fn canonical_samples(
+    pool: &rayon::ThreadPool,
+    config: &GenerateConfig,
+    garment: &Garment,
+    body: &CapsuleBody,
+    materials: &[usize],
+    is_done: &(dyn Fn(usize, usize) -> bool + Sync),
+    drape: &(dyn Fn(usize, usize, &CanonicalDraper) -> Result<(bool, f64)> + Sync),
+    should_stop: &(dyn Fn() -> bool + Sync),
+) -> Result<(usize, usize, f64)> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::{Mutex, OnceLock};
+
+    let todo: Vec<(usize, usize)> = (0..config.poses.len())
+        .flat_map(|p| materials.iter().map(move |&m| (m, p)))
+        .filter(|&(m, p)| !is_done(m, p))
+        .collect();
+    let per_material: Vec<usize> = (0..config.materials.len())
+        .map(|m| todo.iter().filter(|t| t.0 == m).count())
+        .collect();
+    // The rest drape and its cost (ms) of each material, made on first use (`None` when it
+    // failed: its error is the run's).
+    let drapers: Vec<OnceLock<Option<(CanonicalDraper, f64)>>> =
+        (0..config.materials.len()).map(|_| OnceLock::new()).collect();
+    let next = AtomicUsize::new(0);
+    let totals = Mutex::new((0usize, 0usize, 0.0f64));
+    let first_error: Mutex<Option<Error>> = Mutex::new(None);
+    let fail = |e: Error| {
+        first_error
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .get_or_insert(e);
+        // Stop handing out work: the run reports its first error.
+        next.store(todo.len(), Ordering::Relaxed);
+    };
+    let worker = || {
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            let Some(&(m, p)) = todo.get(i) else { return };
+            if should_stop() {
+                fail(Error::Interrupted);
+                return;
+            }
+            let made = drapers[m].get_or_init(|| {
+                let started = Instant::now();
+                match CanonicalDraper::new(garment, body, &config.materials[m].1, &config.sequence)
+                {
+                    Ok(d) => Some((d, started.elapsed().as_secs_f64() * 1e3)),
+                    Err(e) => {
+                        fail(e);
+                        None
+                    }
+                }
+            });
+            let Some((draper, rest_ms)) = made else { return };
+            let result = drape(m, p, draper)
+                .map(|(converged, ms)| (converged, ms + rest_ms / per_material[m] as f64));
+            match result {
+                Ok((converged, ms)) => {
+                    let mut t = totals.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    t.0 += 1;
+                    t.1 += usize::from(!converged);
+                    t.2 += ms;
+                }
+                Err(e) => {
+                    fail(e);
+                    return;
+                }
+            }
+        }
+    };
+    pool.scope(|s| {
+        for _ in 0..pool.current_num_threads() {
+            s.spawn(|_| worker());
+        }
+    });
+    if let Some(e) = first_error
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+    {
+        return Err(e);
+    }
+    Ok(totals
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner))
 }

@@ -59,8 +59,8 @@ pub struct DrapeSettings {
     /// where it landed unless pulled harder than the Coulomb bound. Default 0.3 (cotton on
     /// skin): with it (and [`crate::SequenceSettings::follow_body`]) drapes of two fabrics
     /// 0.5 % apart in ω lay 2.6 mm apart on average instead of 14 mm frictionless (3.1
-    /// instead of 46 mm in the worst frame; README, "The ground truth's noise floor"). 0
-    /// gives the frictionless contact of datasets made before this default.
+    /// instead of 46 mm in the worst frame; book/src/solver.md, "The ground truth's noise
+    /// floor"). 0 gives the frictionless contact of datasets made before this default.
     pub friction: Real,
     /// Slip length of the friction (metres): below it static friction is a spring of
     /// stiffness `2 μ λ / ε`; beyond it the vertex slides against `μ λ`.
@@ -75,7 +75,7 @@ pub struct DrapeSettings {
     /// Hessian leaves out the negative transverse stiffness of compressed springs, so where
     /// cloth buckles and folds settle the Newton model is stiffer than the cloth and its
     /// steps fall short. Default 2: 27 % fewer Newton iterations settling the T-shirt at each
-    /// pose (README, "The ground-truth solver"). A walk's intermediate steps (4 iterations
+    /// pose (book/src/solver.md). A walk's intermediate steps (4 iterations
     /// at the default [`crate::SequenceSettings::intermediate_iterations`]) never reach plain
     /// Newton, so the walk itself is unchanged. Manifests written
     /// before it existed read as 1 ([`crate::SequenceSettings::from_manifest`]).
@@ -86,7 +86,7 @@ pub struct DrapeSettings {
     /// matrix to a relative residual of 1e-9: T-shirt walks 12–23 % faster, to drapes
     /// within the ground truth's noise floor of the double-precision ones, but the steps'
     /// 1e-9 errors grow where an equilibrium is unstable (a sheet balanced on a sphere
-    /// slides off it), so it is opt-in (README, "The ground-truth solver"). Manifests
+    /// slides off it), so it is opt-in (book/src/solver.md). Manifests
     /// written before it existed lack it and read as `Double`, as they were made.
     pub factor_precision: FactorPrecision,
 }

@@ -1,5 +1,7 @@
 //! The simulation crate's error type: every variant says what went wrong and what to fix.
 
+use garmatnet_core::Real;
+
 /// Everything that can go wrong in `garmatnet-sim`.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -23,6 +25,51 @@ pub enum Error {
     Diverged {
         /// The iteration at which non-finite positions appeared.
         iteration: usize,
+    },
+    /// A pose puts two parts of the body closer than allowed: an arm through (or within the
+    /// cloth's gap of) the torso, a forearm through a thigh, the legs through each other. See
+    /// [`crate::SelfIntersection`]. Lift or turn the limb away, or pick another pose.
+    #[error(
+        "the body passes through itself: the `{joint_a}` and `{joint_b}` capsules are \
+         {gap_m:.4} m apart (negative: overlapping), at least {required_m:.4} m required; move \
+         the limb away"
+    )]
+    SelfIntersecting {
+        /// The joint carrying one of the two capsules (SMPL name).
+        joint_a: &'static str,
+        /// The joint carrying the other capsule (SMPL name).
+        joint_b: &'static str,
+        /// The gap between their surfaces (metres; negative where they overlap).
+        gap_m: f64,
+        /// The smallest gap allowed between them (metres).
+        required_m: f64,
+    },
+    /// The pose sampler drew `attempts` poses for index `index` and none was within the
+    /// joint limits and free of self-intersection. Loosen the sampler's settings (a smaller
+    /// arm gap, wider limits) or raise its `max_attempts`.
+    #[error(
+        "no admissible pose for index {index} in {attempts} draws; loosen the pose sampler's \
+         arm gap or limits, or raise max_attempts"
+    )]
+    PoseSamplingExhausted {
+        /// The index of the pose that could not be drawn.
+        index: u64,
+        /// How many poses were drawn and refused.
+        attempts: usize,
+    },
+    /// A template has no left-right mirror map: the mirror image (x negated) of `vertex`'s
+    /// rest position has no vertex of its own within [`crate::MIRROR_TOLERANCE`] (or shares
+    /// its twin with another vertex, `nearest_twin_m` then 0). Mirror asymmetry is defined
+    /// only for templates built mirror-symmetric about the body's sagittal plane `x = 0`.
+    #[error(
+        "the template is not mirror-symmetric about x = 0: vertex {vertex}'s mirror image is \
+         {nearest_twin_m} m from the nearest vertex (or shares its twin)"
+    )]
+    NotMirrorSymmetric {
+        /// The first vertex without a twin.
+        vertex: usize,
+        /// How far (metres) the nearest vertex lies from its mirror image.
+        nearest_twin_m: Real,
     },
     /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
     /// Finished samples are on disk; run the same command again to resume.

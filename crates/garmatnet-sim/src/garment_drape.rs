@@ -235,7 +235,7 @@ pub fn surface_steps(
 /// with the body and slides only where it is pulled harder than the Coulomb bound. The
 /// solver's [`DrapeSettings::max_iterations`] is the budget of a step: [`drape_sequence`]
 /// converges every pose (its default cap, 300), while an interactive application can stop
-/// after a few iterations. Measured (README, "The ground-truth solver"; `cargo run -p
+/// after a few iterations. Measured (book/src/solver.md; `cargo run -p
 /// garmatnet-sim --release --example frame_budget`): at the paper resolution, 8 iterations
 /// per frame of the gentle motion take about 0.3 s on one core and stay as close to the
 /// dataset's walked drapes as fully converged frames stepped the same way.
@@ -247,12 +247,12 @@ pub fn surface_steps(
 /// let body = CapsuleBody::smpl_neutral();
 /// let garment = Garment::tshirt(Resolution::Default, &body)?;
 /// let material = Material::preset("Denim Heavy")?;
-/// // Hang the shirt on the rest pose once, to equilibrium...
+/// // Hang the shirt on its rest pose (the A-pose it is dressed in) once, to equilibrium...
 /// let mut shirt = FrameStepper::new(
-///     &garment, &body, &material, &DrapeSettings::default(), &Pose::zero(),
+///     &garment, &body, &material, &DrapeSettings::default(), &garment.rest_pose,
 ///     garment.rest.vertices.clone(),
 /// )?;
-/// shirt.step(&Pose::zero())?;
+/// shirt.step(&garment.rest_pose)?;
 /// // ...then follow a motion with 8 Newton iterations a frame.
 /// shirt.set_settings(&DrapeSettings { max_iterations: 8, ..DrapeSettings::default() })?;
 /// for pose in MotionGenerator::new(0, 20).generate() {
@@ -431,7 +431,10 @@ pub struct SequenceResume {
 /// a run resumed from a saved sample ([`SequenceResume`]) continues bit-identically to one
 /// that never stopped.
 ///
-/// Starts from the rest garment on the rest (T-pose) body and drapes it there, then walks
+/// Starts from the rest garment on the body in the garment's rest pose
+/// ([`Garment::rest_pose`]: the A-pose for the fitted shirt, the T-pose for the boxy one)
+/// and drapes it there (landing it frictionless for [`LANDING_ITERATIONS`], then settling
+/// it with friction: [`settle_at_rest`]), then walks
 /// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
 /// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every
 /// step from the previous result (carried with the body when `settings.follow_body`) with
@@ -466,9 +469,16 @@ pub fn drape_sequence(
     let mut all = Vec::new();
     let (positions, mut current, first) = match resume {
         None => {
+            // The rest mesh fits the body in the garment's rest pose: the walk starts there.
             let mut positions = garment.rest.vertices.clone();
-            all.push(solver.drape(&mut positions, &body.pose(&Pose::zero()), &[])?);
-            (positions, Pose::zero(), 0)
+            all.push(settle_at_rest(
+                &mut solver,
+                &full,
+                &mut positions,
+                body,
+                &garment.rest_pose,
+            )?);
+            (positions, garment.rest_pose.clone(), 0)
         }
         Some(r) => {
             if r.next == 0 || r.next > poses.len() || r.positions.len() != garment.vertex_count() {
@@ -514,6 +524,47 @@ pub fn drape_sequence(
         current = target.clone();
     }
     Ok(all)
+}
+
+/// Newton iterations of the rest drape's frictionless landing ([`settle_at_rest`]).
+pub const LANDING_ITERATIONS: usize = 10;
+
+/// Drapes the garment at `positions` (the rest template, clear of the body) on `body` in the
+/// rest pose, with `settings`: first [`LANDING_ITERATIONS`] Newton iterations, which land
+/// the cloth on the body (the template starts out of contact, so friction, lagged at the
+/// start of a drape, has no contact to act on), then a drape to equilibrium from there with
+/// friction holding what has landed. The returned stats are the second drape's, its
+/// iterations and time the sum of both.
+///
+/// Draped in one frictionless go, the shirt slid along the raised arms for its whole
+/// convergence: its lateral mode on the T-pose body is so soft that SMPL's 3 mm of
+/// left-right asymmetry carried five of six fabrics 29–40 mm toward the body's left, and on
+/// an exactly symmetric body rounding alone carried Silk Duchess Satin 30 mm. Landed first
+/// and then held by friction, the drape on a symmetric body is symmetric to the micrometre.
+///
+/// # Errors
+/// As [`DrapeSolver::drape`].
+pub fn settle_at_rest(
+    solver: &mut DrapeSolver,
+    settings: &DrapeSettings,
+    positions: &mut [Vec3],
+    body: &CapsuleBody,
+    rest_pose: &Pose,
+) -> Result<DrapeStats> {
+    let rest = body.pose(rest_pose);
+    solver.set_settings(&DrapeSettings {
+        max_iterations: LANDING_ITERATIONS.min(settings.max_iterations),
+        ..settings.clone()
+    })?;
+    let landing = solver.drape(positions, &rest, &[])?;
+    solver.set_settings(settings)?;
+    let mut stats = solver.drape(positions, &rest, &[])?;
+    stats.iterations += landing.iterations;
+    stats.refactorizations += landing.refactorizations;
+    stats.rejected_steps += landing.rejected_steps;
+    stats.expanded_steps += landing.expanded_steps;
+    stats.wall_time_ms += landing.wall_time_ms;
+    Ok(stats)
 }
 
 /// Every pose's settled garment along [`drape_sequence`]'s walk from the rest pose (metres;

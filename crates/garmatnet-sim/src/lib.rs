@@ -6,6 +6,8 @@
 //! relative to the moving body.
 
 pub mod arm_clearance;
+pub mod arm_placement;
+pub mod canonical;
 pub mod cloth_model;
 pub mod contact;
 pub mod dataset;
@@ -15,17 +17,23 @@ pub mod drape_energy;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
+pub mod everyday_poses;
 pub mod garment_drape;
 pub mod grid_sheet;
 pub mod manifest;
+pub mod mirror_symmetry;
 pub mod motion;
 mod nested_dissection;
 mod newton_system;
+pub mod pose_sampler;
 pub mod reuse;
 pub mod sample_arrays;
+pub mod self_intersection;
 pub mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
+pub use arm_placement::{ArmPlacement, Side};
+pub use canonical::{CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings};
 pub use cloth_model::{ClothModel, SpringSpec};
 pub use contact::EmptySpace;
 pub use dataset::{DatasetWriter, scan_samples};
@@ -33,16 +41,17 @@ pub use dataset_generator::{
     BODY_NAME, GenerateConfig, GenerateEvent, GenerateReport, SampleDeriver, SampleDone,
     dataset_spec, generate_dataset,
 };
-pub use dataset_reader::{DatasetReader, DatasetReport, OVER_STRETCH, Summary, check};
+pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
 pub use drape_energy::{
     EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
 };
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result};
+pub use everyday_poses::{EverydayPose, everyday_pose, everyday_pose_names, everyday_poses};
 pub use garment_drape::{
-    FrameStepper, SequenceResume, SequenceSettings, cloth_from_garment, drape_poses,
-    drape_sequence, surface_steps,
+    FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
+    drape_poses, drape_sequence, settle_at_rest, surface_steps,
 };
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
@@ -50,10 +59,18 @@ pub use manifest::{
     SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, revision_label,
     sample_stem,
 };
+pub use mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};
 pub use motion::{
     MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,
     rest_deviation,
 };
+pub use pose_sampler::{
+    DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, PoseSampler, PoseSamplerConfig,
+};
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;
+pub use self_intersection::{
+    DEFAULT_ARM_GAP, SelfContact, SelfIntersection, THIGH_ROOT_FRACTION, UPPER_ARM_ROOT_FRACTION,
+    self_intersection,
+};
 pub use shard::{MergeReport, Shard, merge_shards};

@@ -364,11 +364,24 @@ mod tests {
         // Measured: 2.49 M factor entries against minimum degree's 2.90 M at paper
         // resolution (factorisation 29 vs 38 ms); at default resolution minimum degree wins
         // narrowly (1.51 vs 1.56 M) and is kept, so default-resolution drapes are unchanged.
-        let paper = NewtonSystem::new(&tshirt(Resolution::Paper)).unwrap();
+        // Measured on the boxy shirt, whose default-resolution drapes must not change (the
+        // shipped model's data).
+        let boxy = |resolution| {
+            let body = CapsuleBody::smpl_neutral();
+            let garment = Garment::boxy_tshirt(resolution, &body).unwrap();
+            cloth_from_garment(&garment, &Material::preset("Cotton Poplin").unwrap()).unwrap()
+        };
+        let paper = NewtonSystem::new(&boxy(Resolution::Paper)).unwrap();
         assert!(paper.dissection);
         assert!(paper.factor_len() < 2_700_000, "{}", paper.factor_len());
         assert!(
-            !NewtonSystem::new(&tshirt(Resolution::Default))
+            !NewtonSystem::new(&boxy(Resolution::Default))
+                .unwrap()
+                .dissection
+        );
+        // The fitted shirt at paper resolution factors cheaper with nested dissection too.
+        assert!(
+            NewtonSystem::new(&tshirt(Resolution::Paper))
                 .unwrap()
                 .dissection
         );

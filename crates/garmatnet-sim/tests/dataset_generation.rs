@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use garmatnet_core::{Material, Resolution, SmoothingSettings};
 use garmatnet_sim::{
-    DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport, MotionGenerator,
-    SequenceSettings, Shard, check, generate_dataset, merge_shards,
+    DrapeProtocol, DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport,
+    MotionGenerator, SequenceSettings, Shard, check, generate_dataset, merge_shards,
 };
 
 fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
@@ -37,6 +37,7 @@ fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
         threads,
         shard,
         reuse: Vec::new(),
+        protocol: DrapeProtocol::Walk,
     }
 }
 
@@ -203,5 +204,63 @@ fn killed_runs_resume_to_the_same_dataset_and_threads_do_not_matter() -> anyhow:
     let err = merge_shards(&again, &[slim], spec).unwrap_err();
     assert!(err.to_string().contains("m001_p0002"), "{err}");
     assert!(!again.join("samples/m001_p0002/stats.json").exists());
+    Ok(())
+}
+
+/// Issue 48: under the canonical protocol a sample's drape depends on its (pose, fabric,
+/// settings) alone: the same pose and fabric give bit-identical `simulated` arrays in a
+/// dataset of other poses in another order, in one shard of two, and on one thread or two.
+#[test]
+fn canonical_drapes_do_not_depend_on_dataset_order_shard_or_threads() -> anyhow::Result<()> {
+    let tmp = tempfile::tempdir()?;
+    let poses = MotionGenerator::new(5, 3).generate();
+    let canonical = |out: &Path, order: &[usize], materials: &[&str], threads, shard| {
+        let mut c = config(out, threads, shard);
+        c.protocol = DrapeProtocol::Canonical;
+        c.sequence.max_surface_step = 0.05;
+        c.poses = order.iter().map(|&i| poses[i].clone()).collect();
+        c.frames = order.to_vec();
+        c.materials = materials
+            .iter()
+            .map(|n| (n.to_string(), Material::preset(n).unwrap()))
+            .collect();
+        c
+    };
+    let a = tmp.path().join("a");
+    let report = generate_dataset(
+        &canonical(
+            &a,
+            &[0, 1, 2],
+            &["Cotton Poplin", "Denim Heavy"],
+            1,
+            Shard::new(0, 1)?,
+        ),
+        &|_| {},
+        &|| false,
+    )?;
+    assert_eq!(report.written, 6);
+    let b = tmp.path().join("b");
+    generate_dataset(
+        &canonical(
+            &b,
+            &[2, 0],
+            &["Silk Chiffon", "Denim Heavy"],
+            2,
+            Shard::new(1, 2)?,
+        ),
+        &|_| {},
+        &|| false,
+    )?;
+    let simulated = |dir: &Path, m: usize, p: usize| {
+        let stem = garmatnet_sim::sample_stem(m, p);
+        std::fs::read(dir.join("samples").join(&stem).join("simulated.npy")).unwrap()
+    };
+    // Denim Heavy is material 1 in both; b's poses are a's 2 and 0.
+    assert_eq!(simulated(&a, 1, 2), simulated(&b, 1, 0));
+    assert_eq!(simulated(&a, 1, 0), simulated(&b, 1, 1));
+    assert_ne!(simulated(&a, 1, 0), simulated(&a, 1, 2));
+    let manifest = Manifest::read(&a)?;
+    assert_eq!(manifest.spec.protocol, DrapeProtocol::Canonical);
+    assert_eq!(manifest.spec.ground_truth_revision, Some(3));
     Ok(())
 }

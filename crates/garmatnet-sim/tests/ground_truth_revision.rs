@@ -3,12 +3,11 @@
 //! A dataset's manifest records the revision of the solver that made it, and a dataset is
 //! only resumed, extended or merged with drapes of its own revision. That guard is only as
 //! good as the revision number, so this test fails when the drapes move without it: the
-//! coarse T-shirt in Felt walked through three of the motion's most extreme poses (arms
-//! against the torso, where the final projection out of the body works in the capsules'
-//! blend regions), compared vertex by vertex with the fixture of this revision, once with
-//! the default settings and once as a manifest written before the penalty hardened inside
-//! the body reads them (`contact_hardening` 0), so datasets made that way still resume as
-//! they were made.
+//! coarse fitted T-shirt in Felt draped by the canonical protocol at three poses of the
+//! everyday suite (arms at the sides, where cloth is pinched between arm and torso; both
+//! arms raised; the torso twisted), compared vertex by vertex with the fixture of this
+//! revision, once with the canonical settings and once without the penalty's hardening
+//! inside the body (`contact_hardening` 0, as manifests written before it read).
 //!
 //! When a change moves the drapes on purpose, bump [`GROUND_TRUTH_REVISION`], say in its
 //! doc what changed, and write the new fixture with
@@ -19,7 +18,7 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet_sim::sample_arrays::{read_points_npy, write_points_npy};
 use garmatnet_sim::{
-    GROUND_TRUTH_REVISION, MotionGenerator, SequenceSettings, drape_poses, extreme_poses,
+    CanonicalDraper, GROUND_TRUTH_REVISION, SequenceSettings, canonical_settings, everyday_pose,
 };
 
 /// How far (metres) a vertex may lie from the fixture: far above the fixture's f32 rounding
@@ -35,28 +34,24 @@ fn fixture(settings: &str) -> PathBuf {
         ))
 }
 
-/// The walk with `settings`: every drape's vertices, frame after frame, in f32 as datasets
-/// store them.
+/// Felt's drapes by the canonical protocol with `settings` (revision 3's samples) at three
+/// poses of the everyday suite, on the default (fitted) shirt: every vertex, pose after pose,
+/// in f32 as datasets store them.
 fn walk(settings: &SequenceSettings) -> Vec<[f32; 3]> {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
-    let motion = MotionGenerator::new(0, 200).generate();
-    let poses: Vec<_> = extreme_poses(&motion, 20)[..3]
-        .iter()
-        .map(|&i| motion[i].clone())
-        .collect();
     let material = Material::preset("Felt").unwrap();
-    drape_poses(&garment, &body, &material, &poses, settings)
-        .unwrap()
+    let draper = CanonicalDraper::new(&garment, &body, &material, settings).unwrap();
+    ["arms-at-sides", "both-arms-raised", "torso-twisted"]
         .iter()
-        .flatten()
+        .flat_map(|name| draper.drape(&everyday_pose(name).unwrap()).unwrap().0)
         .map(|v| [v.x as f32, v.y as f32, v.z as f32])
         .collect()
 }
 
 #[test]
 fn the_drapes_are_this_revisions() {
-    let defaults = SequenceSettings::default();
+    let defaults = canonical_settings();
     let mut unhardened = defaults.clone();
     unhardened.drape.contact_hardening = 0.0;
     for (name, settings) in [("defaults", defaults), ("no_hardening", unhardened)] {

@@ -95,6 +95,7 @@ pub fn sweep_alpha(
         }
         let report = evaluate(
             &EvalInputs {
+                held_out: Vec::new(),
                 data_dir: data_dir.to_owned(),
                 model: model.clone(),
                 baseline: None,

@@ -145,7 +145,10 @@ impl TrainingDataset {
             ))
         })?;
         let body = CapsuleBody::smpl_neutral();
-        let garment = Garment::tshirt(resolution, &body)?;
+        let garment = match Garment::for_template(resolution, &spec.template.hash, &body) {
+            Ok(garment) => garment,
+            Err(_) => Garment::tshirt(resolution, &body)?,
+        };
         let template_hash = format!("{:016x}", garment.template_hash());
         if template_hash != spec.template.hash
             || garment.vertex_count() != spec.template.vertex_count

@@ -20,8 +20,8 @@ use crate::prediction_errors::{
     predict_garmatnet, vertex_errors,
 };
 use crate::report::{
-    ErrorStats, FrameComparison, MaterialErrors, ModelSizes, NearestTraining, PenetrationStats,
-    Report, SampleErrors, TestParts, Timing,
+    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, ModelSizes, NearestTraining,
+    PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 use crate::split::Split;
 
@@ -67,6 +67,10 @@ pub struct EvalInputs {
     pub compare_model: Option<PathBuf>,
     /// Where `report.json`, `report.md` and the figures go (created if needed).
     pub out_dir: PathBuf,
+    /// Named held-out datasets evaluated whole beside the test split (e.g. `everyday`, the
+    /// everyday pose suite, and `held-out motion`, a walk of another seed), each of the
+    /// model's template.
+    pub held_out: Vec<(String, PathBuf)>,
 }
 
 /// Evaluates `inputs.model` (and the baseline / second model) on the model's test split and
@@ -258,6 +262,11 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         garmatnet_mb: file_size(&inputs.model) as f64 / 1e6,
         baseline_mb: inputs.baseline.as_ref().map(|d| dir_size(d) as f64 / 1e6),
     };
+    let held_out_sets = inputs
+        .held_out
+        .iter()
+        .map(|(name, dir)| held_out_set(name, dir, &model, &data, &split, &device))
+        .collect::<Result<Vec<_>>>()?;
     let timing = time_inference(&model, &data, &split.test, &device, config)?;
     let report = Report {
         dataset_hash: data.dataset_hash().to_owned(),
@@ -281,10 +290,58 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         timing,
         sizes,
         frame_comparison,
+        held_out_sets,
         files,
     };
     report.write(&inputs.out_dir)?;
     Ok(report)
+}
+
+/// The model's error on every sample of the held-out dataset in `dir`, split by whether the
+/// fabric is one the model trained on (same name and ω).
+fn held_out_set(
+    name: &str,
+    dir: &Path,
+    model: &GarMatNetModel,
+    data: &TrainingDataset,
+    split: &Split,
+    device: &Device,
+) -> Result<HeldOutSet> {
+    let set = TrainingDataset::open(dir, true)?;
+    model.ensure_template(set.template_hash(), set.vertex_count())?;
+    let training = split.training_fabrics(data.spec());
+    let seen: Vec<bool> = set
+        .spec()
+        .materials
+        .iter()
+        .map(|m| {
+            training
+                .iter()
+                .any(|t| t.name == m.name && t.omega == m.omega_normalized)
+        })
+        .collect();
+    let mut errors = Vec::new();
+    for keys in set.keys().chunks(64) {
+        let preds = predict_garmatnet(model, &set, keys, device)?;
+        for (&key, pred) in keys.iter().zip(preds) {
+            errors.push((seen[key.material], vertex_errors(&set.truth(key)?, &pred)));
+        }
+    }
+    let part = |want: bool| {
+        let chosen: Vec<&VertexErrors> = errors
+            .iter()
+            .filter(|(s, _)| *s == want)
+            .map(|(_, e)| e)
+            .collect();
+        (!chosen.is_empty()).then(|| error_stats(chosen.into_iter()))
+    };
+    Ok(HeldOutSet {
+        name: name.to_owned(),
+        dir: dir.display().to_string(),
+        all: error_stats(errors.iter().map(|(_, e)| e)),
+        training_fabrics: part(true),
+        unseen_fabrics: part(false),
+    })
 }
 
 fn frame_name(frame: DisplacementFrame) -> &'static str {
@@ -498,6 +555,7 @@ mod tests {
             ..EvalConfig::default()
         };
         let inputs = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data.clone(),
             model: world.clone(),
             baseline: Some(baseline_dir),
@@ -752,6 +810,7 @@ mod tests {
         let dropped = json["materials"].as_array_mut().unwrap().remove(0);
         std::fs::write(&manifest_path, serde_json::to_vec(&json).unwrap()).unwrap();
         let refused = EvalInputs {
+            held_out: Vec::new(),
             out_dir: out.with_file_name("refused"),
             ..inputs.clone()
         };
@@ -798,6 +857,7 @@ mod tests {
         )
         .unwrap();
         let with_baseline = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data.clone(),
             model: model.clone(),
             baseline: Some(baseline),
@@ -811,6 +871,7 @@ mod tests {
 
         let out = dir.path().join("eval");
         let inputs = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data,
             model,
             baseline: None,
@@ -872,6 +933,7 @@ mod tests {
         train(&data, &model, &tiny_config(1), &RunOptions::default()).unwrap();
         std::fs::remove_file(crate::trainer::split_path(&model)).unwrap();
         let inputs = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data,
             model,
             baseline: None,

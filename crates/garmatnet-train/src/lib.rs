@@ -66,15 +66,15 @@ pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use physics::{
-    CapsuleTensors, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
+    BodyField, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
     PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PoseSource, TwoNetPhysicsLoss,
-    rest_offset_normalizers, smooth_union, train_physics_only, uniform_fabric,
+    rest_offset_normalizers, train_physics_only, uniform_fabric,
 };
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{
-    ErrorStats, FrameComparison, MaterialErrors, MaterialSupport, ModelSizes, NearestTraining,
-    PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
+    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
+    NearestTraining, PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,

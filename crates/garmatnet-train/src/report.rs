@@ -122,6 +122,23 @@ pub struct TestParts {
     pub dev_frames: Option<(usize, usize)>,
 }
 
+/// GarMatNet's error on a whole held-out dataset of its own (`eval --held-out NAME=DIR`):
+/// poses the model never came near, such as the everyday suite or a motion of another seed,
+/// draped by the canonical protocol.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutSet {
+    /// The set's name, e.g. `everyday` or `held-out motion`.
+    pub name: String,
+    /// The dataset's directory, as given.
+    pub dir: String,
+    /// Every sample of the set.
+    pub all: ErrorStats,
+    /// Its samples of fabrics the model trained on; `None` if it has none.
+    pub training_fabrics: Option<ErrorStats>,
+    /// Its samples of fabrics the model never saw; `None` if it has none.
+    pub unseen_fabrics: Option<ErrorStats>,
+}
+
 /// A non-learned reference on the Table 2 samples: the true drape, at the same test pose, of
 /// a fabric the model trained on. It knows each held-out pose's drapes (no model does), so it
 /// is a yardstick of how much fabric alone changes the drape, not a competitor.
@@ -219,6 +236,9 @@ pub struct Report {
     pub sizes: ModelSizes,
     /// World vs canonical frame, when a second model was given.
     pub frame_comparison: Option<FrameComparison>,
+    /// The error on each held-out dataset given to `eval --held-out`, in the order given.
+    #[serde(default)]
+    pub held_out_sets: Vec<HeldOutSet>,
     /// Files written next to the report (plots, heat maps, PLY), relative to it.
     pub files: Vec<String>,
 }
@@ -324,6 +344,17 @@ impl Report {
             ] {
                 if let Some(e) = part.as_ref().filter(|e| !repeats(e)) {
                     error_row(&mut s, name, e);
+                }
+            }
+        }
+        for set in &self.held_out_sets {
+            for (part, stats) in [
+                ("", Some(&set.all)),
+                (", training fabrics", set.training_fabrics.as_ref()),
+                (", unseen fabrics", set.unseen_fabrics.as_ref()),
+            ] {
+                if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples) {
+                    error_row(&mut s, &format!("GarMatNet, {}{part}", set.name), e);
                 }
             }
         }

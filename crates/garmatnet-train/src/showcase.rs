@@ -17,7 +17,9 @@ use garmatnet_core::{
     CapsuleBody, Error as CoreError, Garment, MATERIAL_DIM, Material, Pose, Real, SkinnedBody,
     TriMesh, Vec3, write_obj, write_ply,
 };
-use garmatnet_sim::{MotionGenerator, SequenceSettings, drape_sequence};
+use garmatnet_sim::{
+    MotionGenerator, SequenceSettings, drape_sequence, everyday_pose, everyday_poses,
+};
 use image::RgbImage;
 
 use crate::dataset_loader::{SampleKey, TrainingDataset};
@@ -28,15 +30,21 @@ pub const DEFAULT_MOTION_SEED: u64 = 0;
 /// The number of frames of the built-in motion sequence that `--pose FRAME` indexes.
 pub const DEFAULT_MOTION_FRAMES: usize = 240;
 
+/// The `--pose` value that names the everyday suite ([`garmatnet_sim::everyday_poses`]);
+/// `everyday:NAME` names one of its poses.
+pub const EVERYDAY_POSES: &str = "everyday";
+
 /// Resolves a `--pose` argument: a frame number of the built-in motion sequence
-/// ([`DEFAULT_MOTION_SEED`], [`DEFAULT_MOTION_FRAMES`]) or a pose file (`.json`, `.npz`,
-/// `.npy`), of which `frame` picks one pose (default the first). No argument is the T-pose.
+/// ([`DEFAULT_MOTION_SEED`], [`DEFAULT_MOTION_FRAMES`]), `everyday` (the everyday suite, of
+/// which `frame` picks one pose), `everyday:NAME` (its pose called NAME) or a pose file
+/// (`.json`, `.npz`, `.npy`), of which `frame` picks one pose (default the first). No
+/// argument is the T-pose.
 ///
 /// # Errors
 /// [`CoreError::OutOfRange`] for a frame past the sequence or the file;
 /// [`CoreError::InvalidArgument`] for a `frame` without a pose file to pick from (no `spec`,
-/// or a frame number of the built-in motion); the pose file reader's errors (missing
-/// file, malformed content, NaN) otherwise.
+/// or a frame number of the built-in motion) and for an unknown everyday pose name; the
+/// pose file reader's errors (missing file, malformed content, NaN) otherwise.
 pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
     let no_file = |what: &str| {
         CoreError::InvalidArgument(format!(
@@ -68,7 +76,13 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
             out_of_range("frame of the built-in motion (--pose)", index, frames.len()).into()
         });
     }
-    let poses = read_poses(Path::new(spec))?;
+    if let Some(name) = everyday_name(spec) {
+        if frame.is_some() {
+            return Err(no_file(&format!("--pose {spec} names one pose")).into());
+        }
+        return Ok(everyday_pose(name)?);
+    }
+    let poses = pose_list(spec)?;
     let index = frame.unwrap_or(0);
     poses.get(index).cloned().ok_or_else(|| {
         out_of_range(
@@ -81,10 +95,10 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
 }
 
 /// Resolves a `--frames` argument: which poses of a pose file (`pose_file`, `.json`, `.npz`,
-/// `.npy`), or of the built-in motion sequence ([`DEFAULT_MOTION_SEED`],
-/// [`DEFAULT_MOTION_FRAMES`]) when there is none, to predict in order. `frames` is
-/// `START..END` (END excluded), `START..=END`, `START..` (to the last pose) or `all`;
-/// returns each pose with its index.
+/// `.npy`) or of the everyday suite (`pose_file` = `everyday`), or of the built-in motion
+/// sequence ([`DEFAULT_MOTION_SEED`], [`DEFAULT_MOTION_FRAMES`]) when there is none, to
+/// predict in order. `frames` is `START..END` (END excluded), `START..=END`, `START..` (to
+/// the last pose) or `all`; returns each pose with its index.
 ///
 /// # Errors
 /// [`CoreError::InvalidArgument`] for another form or an empty range;
@@ -92,7 +106,7 @@ pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
 /// errors (missing file, malformed content, NaN) otherwise.
 pub fn resolve_frames(pose_file: Option<&str>, frames: &str) -> Result<Vec<(usize, Pose)>> {
     let (poses, source) = match pose_file {
-        Some(file) => (read_poses(Path::new(file))?, format!("`{file}`")),
+        Some(file) => (pose_list(file)?, format!("`{file}`")),
         None => (
             MotionGenerator::new(DEFAULT_MOTION_SEED, DEFAULT_MOTION_FRAMES).generate(),
             "the built-in motion".to_owned(),
@@ -102,9 +116,24 @@ pub fn resolve_frames(pose_file: Option<&str>, frames: &str) -> Result<Vec<(usiz
     Ok(range.clone().zip(poses[range].iter().cloned()).collect())
 }
 
+/// `NAME` of an `everyday:NAME` pose argument.
+fn everyday_name(spec: &str) -> Option<&str> {
+    let (head, name) = spec.trim().split_once(':')?;
+    head.eq_ignore_ascii_case(EVERYDAY_POSES).then_some(name)
+}
+
+/// The poses of a pose file, or the everyday suite for [`EVERYDAY_POSES`].
+fn pose_list(spec: &str) -> Result<Vec<Pose>> {
+    if spec.trim().eq_ignore_ascii_case(EVERYDAY_POSES) {
+        return Ok(everyday_poses().into_iter().map(|p| p.pose).collect());
+    }
+    Ok(read_poses(Path::new(spec))?)
+}
+
 /// The frames of the shipped model's training motion: [`DEFAULT_MOTION_SEED`],
 /// [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm clearance, the poses of
-/// `garmatnet simulate --poses 200 --seed 0`. `frames` as in [`resolve_frames`].
+/// `garmatnet simulate --poses 200 --seed 0 --motion brisk` (the default before independent
+/// poses). `frames` as in [`resolve_frames`].
 ///
 /// # Errors
 /// As [`resolve_frames`].
@@ -714,6 +743,24 @@ mod tests {
             let err = resolve_pose(spec, frame).expect_err("--frame without a file");
             assert!(err.to_string().contains("--pose FILE --frame N"), "{err}");
         }
+        Ok(())
+    }
+
+    #[test]
+    fn everyday_poses_resolve_by_index_name_and_range() -> anyhow::Result<()> {
+        let suite = everyday_poses();
+        assert_eq!(resolve_pose(Some("everyday"), None)?, suite[0].pose);
+        assert_eq!(resolve_pose(Some("everyday"), Some(3))?, suite[3].pose);
+        assert_eq!(
+            resolve_pose(Some("everyday:arms-at-sides"), None)?,
+            everyday_pose("arms-at-sides")?
+        );
+        let unknown = resolve_pose(Some("everyday:cartwheel"), None).expect_err("no such pose");
+        assert!(unknown.to_string().contains("hands-on-hips"), "{unknown}");
+        assert!(resolve_pose(Some("everyday"), Some(suite.len())).is_err());
+        let all = resolve_frames(Some("everyday"), "all")?;
+        assert_eq!(all.len(), suite.len());
+        assert_eq!(all[5].1, suite[5].pose);
         Ok(())
     }
 

@@ -65,7 +65,7 @@ pub struct SplitConfig {
     /// drape, and its error enters a squared loss squared. `None` (default): every sample
     /// is used, as in splits written before this option. Measured on the brisk 30 × 50
     /// dataset, `Some(0.1)` (55 of 1,500 samples) made no difference beyond run-to-run noise
-    /// (README). Not written when `None`, so default runs keep their fingerprints.
+    /// (book/src/cli.md). Not written when `None`, so default runs keep their fingerprints.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_train_residual: Option<f64>,
 }
@@ -677,6 +677,7 @@ mod tests {
                 weights: "uniform".into(),
             },
             ground_truth_revision: None,
+            protocol: Default::default(),
         }
     }
 

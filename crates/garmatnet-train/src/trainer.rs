@@ -119,7 +119,7 @@ impl Default for TrainConfig {
             scale_free_material: false,
             pose_encoding: PoseEncoding::AxisAngle,
             // Canonical won on the 30 x 200 dataset: whole-test error 10.52 vs 10.97 mm
-            // (README, "The shipped model and Table 2").
+            // (book/src/results.md).
             displacement_frame: DisplacementFrame::Canonical,
             split: SplitConfig::default(),
             allow_incomplete_dataset: false,
@@ -898,9 +898,11 @@ pub(crate) mod tests {
         synthetic_dataset(&data, 6, 20);
         let norm = |weight_decay: f64| {
             let path = dir.path().join(format!("wd{weight_decay}.safetensors"));
+            // 40 epochs: on the fitted shirt's toy data, 25 left the decayed run's dev loss
+            // at 0.51 of the untrained one, a hair above the bar.
             let config = TrainConfig {
                 weight_decay,
-                ..tiny_config(25)
+                ..tiny_config(40)
             };
             let s = train(&data, &path, &config, &RunOptions::default()).unwrap();
             eprintln!(
@@ -983,6 +985,7 @@ pub(crate) mod tests {
         assert_ne!(other.fingerprint(), split.fingerprint());
         other.write(&split_file).unwrap();
         let inputs = EvalInputs {
+            held_out: Vec::new(),
             data_dir: data.clone(),
             model: model_path.clone(),
             baseline: None,

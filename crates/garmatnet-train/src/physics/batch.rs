@@ -6,12 +6,11 @@ use burn::prelude::*;
 use burn::tensor::DType;
 use garmatnet_core::{
     CapsuleBody, DisplacementFrame, Garment, JointLimits, MATERIAL_DIM, Material, POSE_DIM, Pose,
-    Real, SplitMix64,
+    PosedBody, Real, SplitMix64,
 };
 use garmatnet_sim::{DrapeSettings, cloth_from_garment};
 
 use crate::error::Result;
-use crate::physics::body_field::CapsuleTensors;
 use crate::physics::energy::ClothTensors;
 
 /// Where physics-informed training draws its poses: [`JointLimitsPoses`], a pose file's
@@ -73,8 +72,8 @@ pub struct PhysicsBatch {
     pub materials: Tensor<2>,
     /// The energy's per-sample cloth constants.
     pub cloth: ClothTensors,
-    /// The posed bodies.
-    pub bodies: CapsuleTensors,
+    /// The posed bodies, one per sample.
+    pub bodies: Vec<PosedBody>,
     /// Each vertex's posed body anchor (metres), `[B, n, 3]`.
     anchors: Tensor<3>,
     /// Each vertex's frame rotation (row-major 3 × 3; identity for the world frame),
@@ -89,7 +88,7 @@ impl PhysicsBatch {
     /// ω, on `device` in f32.
     ///
     /// # Errors
-    /// As [`cloth_from_garment`], [`ClothTensors::new`] and [`CapsuleTensors::new`].
+    /// As [`cloth_from_garment`] and [`ClothTensors::new`].
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
         garment: &Garment,
@@ -129,7 +128,6 @@ impl PhysicsBatch {
         }
         let n = garment.vertex_count();
         let model_refs: Vec<_> = models.iter().collect();
-        let body_refs: Vec<_> = posed.iter().collect();
         Ok(Self {
             poses: Tensor::from_data(TensorData::new(pose_rows.clone(), [size, POSE_DIM]), device),
             materials: Tensor::from_data(
@@ -139,7 +137,7 @@ impl PhysicsBatch {
             pose_rows,
             omega_rows,
             cloth: ClothTensors::new(&model_refs, settings, device, DType::F32)?,
-            bodies: CapsuleTensors::new(&body_refs, device, DType::F32)?,
+            bodies: posed,
             anchors: Tensor::from_data(TensorData::new(anchors, [size, n, 3]), device),
             frames: Tensor::from_data(TensorData::new(frames, [size, n, 3, 3]), device),
         })

@@ -1,7 +1,8 @@
 //! The solver's drape energy in tensors, differentiable in the garment's positions, for a
 //! batch of (pose, fabric) samples: springs (structural, shear, flexion), gravity and the
-//! penalty contact against the posed capsule body, as `garmatnet_sim`'s
-//! [`garmatnet_sim::drape_energy`] defines them.
+//! penalty contact against the posed capsule body (its own distance field, linearised where
+//! the garment is: [`BodyField`]), as `garmatnet_sim`'s [`garmatnet_sim::drape_energy`]
+//! defines them.
 //!
 //! One source of truth: every constant comes from the solver's own [`ClothModel`] (spring
 //! ends, rest lengths and stiffnesses from the fabric's ω through
@@ -17,11 +18,11 @@
 
 use burn::prelude::*;
 use burn::tensor::DType;
-use garmatnet_core::{Error as CoreError, Real};
+use garmatnet_core::{Error as CoreError, PosedBody, Real};
 use garmatnet_sim::{ClothModel, DrapeSettings, HARDENING_DEPTH, contact_stiffness};
 
 use crate::error::Result;
-use crate::physics::body_field::CapsuleTensors;
+use crate::physics::body_field::BodyField;
 
 /// The constant data of a batch's energy: one cloth model per sample, all of one topology.
 #[derive(Debug, Clone)]
@@ -168,16 +169,18 @@ impl ClothTensors {
         self.weight.clone()
     }
 
-    /// The drape energy of garments `x` (metres) on `body`, by term (joules).
+    /// The drape energy of garments `x` (metres) on `bodies` (one posed body per sample), by
+    /// term (joules). The contact reads each body's own distance field at `x`
+    /// ([`BodyField`]).
     ///
     /// # Shapes
     /// `x`: `[B, n, 3]` → each term `[B]`.
     ///
     /// # Errors
-    /// [`CoreError::Mismatch`] if `x` or `body` does not match the batch and vertex count.
-    pub fn energy(&self, x: Tensor<3>, body: &CapsuleTensors) -> Result<EnergyTensors> {
+    /// [`CoreError::Mismatch`] if `x` or `bodies` does not match the batch and vertex count.
+    pub fn energy(&self, x: Tensor<3>, bodies: &[PosedBody]) -> Result<EnergyTensors> {
         let [batch, n, three] = x.dims();
-        if batch != self.batch() || n != self.vertices || three != 3 || body.batch() != batch {
+        if batch != self.batch() || n != self.vertices || three != 3 || bodies.len() != batch {
             return Err(CoreError::Mismatch {
                 what: "garment positions and capsule bodies of an energy batch".into(),
                 expected: format!(
@@ -186,7 +189,7 @@ impl ClothTensors {
                     self.vertices,
                     batch
                 ),
-                got: format!("[{batch}, {n}, {three}] and {} bodies", body.batch()),
+                got: format!("[{batch}, {n}, {three}] and {} bodies", bodies.len()),
             }
             .into());
         }
@@ -207,7 +210,7 @@ impl ClothTensors {
             .sum_dim(1)
             .squeeze_dim::<1>(1)
             .mul_scalar(self.gravity);
-        let distance = body.distance(x);
+        let distance = BodyField::at(bodies, &x)?.distance(x.clone());
         let gap = distance
             .clone()
             .neg()
@@ -281,14 +284,12 @@ mod tests {
         let settings = DrapeSettings::default();
         let ad = Device::flex().autodiff();
         let models: Vec<_> = b.models.iter().collect();
-        let bodies: Vec<_> = b.posed.iter().collect();
         let cloth = ClothTensors::new(&models, &settings, &ad, dtype).unwrap();
-        let caps = CapsuleTensors::new(&bodies, &ad, dtype).unwrap();
         let n = cloth.vertex_count();
         let flat: Vec<f64> = b.x.iter().flatten().flat_map(|v| [v.x, v.y, v.z]).collect();
         let x = Tensor::<3>::from_data(TensorData::new(flat, [b.x.len(), n, 3]), (&ad, dtype))
             .require_grad();
-        let e = cloth.energy(x.clone(), &caps).unwrap();
+        let e = cloth.energy(x.clone(), &b.posed).unwrap();
         let grads = e.total().sum().backward();
         let read1 = |t: Tensor<1>| -> Vec<f64> { t.into_data().try_into_vec_as::<f64>().unwrap() };
         let (springs, gravity, contact) = (read1(e.springs), read1(e.gravity), read1(e.contact));
@@ -384,10 +385,9 @@ mod tests {
         ));
         let cloth = ClothTensors::new(&[&a], &settings, &dev, DType::F32).unwrap();
         let posed = body.pose(&garmatnet_core::Pose::zero());
-        let caps = CapsuleTensors::new(&[&posed, &posed], &dev, DType::F32).unwrap();
         let x = Tensor::<3>::zeros([1, a.vertex_count(), 3], &dev);
         assert!(matches!(
-            cloth.energy(x, &caps),
+            cloth.energy(x, &[posed.clone(), posed]),
             Err(crate::Error::Core(CoreError::Mismatch { .. }))
         ));
     }

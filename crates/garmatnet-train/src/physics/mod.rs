@@ -1,6 +1,6 @@
 //! Physics-informed training (issue 49): the solver's drape energy in tensors
-//! ([`ClothTensors::energy`]) over the posed capsule body's distance field in tensors
-//! ([`CapsuleTensors`]), differentiable in the garment's positions; (pose, fabric) pairs
+//! ([`ClothTensors::energy`]) over the posed body's own distance field, linearised where
+//! the garment is ([`BodyField`]), differentiable in the garment's positions; (pose, fabric) pairs
 //! drawn continuously ([`PhysicsBatch`]); and the two nets' physics-informed loss
 //! ([`TwoNetPhysicsLoss`]).
 
@@ -12,7 +12,7 @@ mod physics_only;
 mod two_net_loss;
 
 pub use batch::{JointLimitsPoses, PhysicsBatch, PoseSource, uniform_fabric};
-pub use body_field::{CapsuleTensors, smooth_union};
+pub use body_field::BodyField;
 pub use energy::{ClothTensors, EnergyTensors};
 pub(crate) use hybrid::LocalPhysics;
 pub use hybrid::PhysicsConfig;

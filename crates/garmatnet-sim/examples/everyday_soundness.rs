@@ -1,0 +1,217 @@
+//! Run: `cargo run -p garmatnet-sim --release --example everyday_soundness -- [coarse|default|paper]`
+//!
+//! Every preset's fitted T-shirt draped by the canonical protocol (revision 3) at every pose
+//! of the everyday suite: one row per (pose, preset) with the largest structural or shear
+//! stretch (sound drapes stay below `SOUND_STRETCH`, 1.2), the deepest penetration left
+//! (mm), whether any coordinate is NaN, whether the solve converged and in how many Newton
+//! iterations, the mirror asymmetry on symmetric poses (mm) and the solver time; then one
+//! summary line per pose. `PRESETS=Denim,Spandex` and `POSES=arms-at-sides,sitting` limit the
+//! presets and poses (substring match, case-insensitive); `THREADS` sets rayon's pool;
+//! `SOLVER=settings.json` drapes with other `SequenceSettings` (missing fields: defaults);
+//! `RENDER=DIR` writes a front and a side view of each drape on its body to `DIR`, the
+//! garment coloured by each vertex's largest spring stretch (red at `SOUND_STRETCH`).
+
+use std::time::Instant;
+
+use garmatnet_core::{CapsuleBody, Garment, Real, Resolution, presets};
+use garmatnet_sim::{CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses};
+use rayon::prelude::*;
+
+/// The comma-separated, lower-cased filter in environment variable `name` (empty: all).
+fn filter(name: &str) -> Vec<String> {
+    std::env::var(name)
+        .map(|s| s.split(',').map(|f| f.trim().to_lowercase()).collect())
+        .unwrap_or_default()
+}
+
+fn keep(filter: &[String], name: &str) -> bool {
+    let lower = name.to_lowercase();
+    filter.is_empty() || filter.iter().any(|f| lower.contains(f.as_str()))
+}
+
+/// One drape's row.
+struct Row {
+    pose: &'static str,
+    preset: &'static str,
+    stretch: Real,
+    penetration: Real,
+    nan: bool,
+    converged: bool,
+    iterations: usize,
+    asymmetry: Option<Real>,
+    seconds: f64,
+}
+
+/// Writes `DIR/POSE_PRESET_{front,side}.png`: the drape `x` on the posed body, coloured by
+/// each vertex's largest spring stretch.
+fn render_drape(
+    dir: &std::path::Path,
+    garment: &Garment,
+    body: &CapsuleBody,
+    pose: &garmatnet_sim::EverydayPose,
+    preset: &str,
+    x: &[garmatnet_core::Vec3],
+) -> anyhow::Result<()> {
+    use garmatnet_core::render::{
+        BODY_COLOR, Camera, RenderItem, RenderSettings, Shading, heat_colors, render, save_png,
+    };
+    std::fs::create_dir_all(dir)?;
+    let mut stretch = vec![0.0; x.len()];
+    for s in &garment.springs {
+        let e = (x[s.a as usize] - x[s.b as usize]).norm() / s.rest_length - 1.0;
+        for v in [s.a as usize, s.b as usize] {
+            stretch[v] = Real::max(stretch[v], e);
+        }
+    }
+    let colors = heat_colors(&stretch, SOUND_STRETCH);
+    let mesh = garmatnet_core::TriMesh::new(x.to_vec(), garment.rest.faces.clone())?;
+    let body_mesh = body.pose(&pose.pose).mesh();
+    let bounds = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+    let margin = garmatnet_core::Vec3::new(0.15, 0.15, 0.15);
+    let tag = format!("{}_{}", pose.name, preset.to_lowercase().replace(' ', "_"));
+    for (view, yaw) in [("front", 0.0), ("side", std::f64::consts::FRAC_PI_2)] {
+        let items = [
+            RenderItem {
+                mesh: &body_mesh,
+                shading: Shading::Uniform(BODY_COLOR),
+            },
+            RenderItem {
+                mesh: &mesh,
+                shading: Shading::PerVertex(&colors),
+            },
+        ];
+        let camera = Camera::framing(bounds.min - margin, bounds.max + margin, yaw);
+        let image = render(&items, &camera, &RenderSettings::default())?;
+        save_png(&dir.join(format!("{tag}_{view}.png")), &image)?;
+    }
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    let resolution: Resolution = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "coarse".into())
+        .parse()?;
+    if let Ok(threads) = std::env::var("THREADS") {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.parse()?)
+            .build_global()?;
+    }
+    let (preset_filter, pose_filter) = (filter("PRESETS"), filter("POSES"));
+    let body = CapsuleBody::smpl_neutral();
+    let garment = Garment::tshirt(resolution, &body)?;
+    let mirror = MirrorMap::of_garment(&garment)?;
+    let poses: Vec<_> = everyday_poses()
+        .into_iter()
+        .filter(|p| keep(&pose_filter, p.name))
+        .collect();
+    let chosen: Vec<_> = presets()
+        .iter()
+        .filter(|p| keep(&preset_filter, p.name))
+        .collect();
+    println!(
+        "{} vertices, {} poses x {} presets, canonical protocol",
+        garment.vertex_count(),
+        poses.len(),
+        chosen.len()
+    );
+    let settings = match std::env::var("SOLVER") {
+        Ok(path) => serde_json::from_str(&std::fs::read_to_string(path)?)?,
+        Err(_) => canonical_settings(),
+    };
+    let rows: Vec<Row> = chosen
+        .par_iter()
+        .map(|preset| -> anyhow::Result<Vec<Row>> {
+            let draper = CanonicalDraper::new(&garment, &body, &preset.material, &settings)?;
+            poses
+                .iter()
+                .map(|p| {
+                    let t = Instant::now();
+                    let (x, stats) = draper.drape(&p.pose)?;
+                    if let Ok(dir) = std::env::var("RENDER") {
+                        render_drape(std::path::Path::new(&dir), &garment, &body, p, preset.name, &x)?;
+                    }
+                    if std::env::var("WHERE").is_ok() {
+                        let worst = garment
+                            .springs
+                            .iter()
+                            .max_by(|a, b| {
+                                let r = |s: &garmatnet_core::Spring| {
+                                    (x[s.a as usize] - x[s.b as usize]).norm() / s.rest_length
+                                };
+                                r(a).total_cmp(&r(b))
+                            })
+                            .map(|s| (s.kind, s.a, s.b, s.rest_length, (x[s.a as usize] - x[s.b as usize]).norm(), garment.rest.vertices[s.a as usize], garment.rest.vertices[s.b as usize]));
+                        eprintln!("{} {}: worst spring {worst:?}", p.name, preset.name);
+                        let over: Vec<(String, Real, Real)> = garment
+                            .springs
+                            .iter()
+                            .map(|s| (format!("{:?}", s.kind), s.rest_length, (x[s.a as usize] - x[s.b as usize]).norm() / s.rest_length - 1.0))
+                            .filter(|t| t.2 > 0.5)
+                            .collect();
+                        eprintln!("  {} springs past 0.5: {:?}", over.len(), over.iter().map(|t| format!("{} {:.1}mm {:.2}", t.0, t.1 * 1e3, t.2)).collect::<Vec<_>>());
+                    }
+                    Ok(Row {
+                        pose: p.name,
+                        preset: preset.name,
+                        stretch: stats.max_strain,
+                        penetration: stats.max_penetration,
+                        nan: x.iter().any(|v| !v.iter().all(|c| c.is_finite())),
+                        converged: stats.converged,
+                        iterations: stats.iterations,
+                        asymmetry: if p.symmetric {
+                            Some(mirror.asymmetry(&x)?)
+                        } else {
+                            None
+                        },
+                        seconds: t.elapsed().as_secs_f64(),
+                    })
+                })
+                .collect()
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    println!(
+        "| pose | preset | max stretch | penetration (mm) | NaN | converged | iterations | mirror asym. (mm) | time (s) |"
+    );
+    println!("|---|---|---:|---:|---|---|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.3} | {:.2} | {} | {} | {} | {} | {:.1} |",
+            r.pose,
+            r.preset,
+            r.stretch,
+            r.penetration * 1e3,
+            if r.nan { "yes" } else { "no" },
+            r.converged,
+            r.iterations,
+            r.asymmetry.map_or("-".into(), |a| format!("{:.1}", a * 1e3)),
+            r.seconds
+        );
+    }
+    println!("\n| pose | presets | past {SOUND_STRETCH} | worst stretch | worst penetration (mm) | NaN | not converged | worst asym. (mm) | mean time (s) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for p in &poses {
+        let of: Vec<&Row> = rows.iter().filter(|r| r.pose == p.name).collect();
+        let worst = |f: &dyn Fn(&Row) -> Real| of.iter().map(|r| f(r)).fold(0.0, Real::max);
+        println!(
+            "| {} | {} | {} | {:.3} | {:.2} | {} | {} | {} | {:.1} |",
+            p.name,
+            of.len(),
+            of.iter().filter(|r| r.stretch > SOUND_STRETCH).count(),
+            worst(&|r| r.stretch),
+            worst(&|r| r.penetration) * 1e3,
+            of.iter().filter(|r| r.nan).count(),
+            of.iter().filter(|r| !r.converged).count(),
+            if p.symmetric {
+                format!("{:.1}", worst(&|r| r.asymmetry.unwrap_or(0.0)) * 1e3)
+            } else {
+                "-".into()
+            },
+            of.iter().map(|r| r.seconds).sum::<f64>() / of.len().max(1) as f64
+        );
+    }
+    Ok(())
+}
