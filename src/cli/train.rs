@@ -4,19 +4,21 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use garmatnet::core::DisplacementFrame;
+use garmatnet::core::{DisplacementFrame, Resolution};
 use garmatnet::model::PoseEncoding;
 use garmatnet::train::{
-    BASELINE_MANIFEST, BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS, RunOptions,
-    TrainConfig, sweep_alpha, train, train_baseline,
+    BASELINE_MANIFEST, BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS,
+    PhysicsOnlyConfig, RunOptions, TrainConfig, sweep_alpha, train, train_baseline,
+    train_physics_only,
 };
 
 /// Options shared by every training command (defaults: the paper's protocol).
 #[derive(Debug, Args)]
 pub struct TrainOptions {
-    /// The dataset directory (from `garmatnet simulate`).
+    /// The dataset directory (from `garmatnet simulate`); required except by
+    /// `train --physics-only`.
     #[arg(long)]
-    pub data: PathBuf,
+    pub data: Option<PathBuf>,
     /// A JSON `TrainConfig` to start from (missing fields take defaults; flags override it).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -60,6 +62,15 @@ pub struct TrainOptions {
     /// Low-rank output head with this many principal components (smaller, faster model).
     #[arg(long)]
     pub rank: Option<usize>,
+    /// Hybrid physics-informed training: the local net's loss adds λ times the drape
+    /// energy per unit weight (metres) of the full prediction at (pose, fabric) pairs drawn
+    /// every step (fabrics uniform in normalised ω, poses within the joint limits).
+    /// Default 0: off.
+    #[arg(long, value_name = "λ")]
+    pub physics_weight: Option<f64>,
+    /// (pose, fabric) pairs per step of the physics term (default 8).
+    #[arg(long)]
+    pub physics_batch: Option<usize>,
     /// The weight controller α ∈ [0, 1] (paper §3.6).
     #[arg(long)]
     pub alpha: Option<f64>,
@@ -107,6 +118,16 @@ pub struct TrainOptions {
 }
 
 impl TrainOptions {
+    /// The dataset directory.
+    ///
+    /// # Errors
+    /// When `--data` was not given.
+    pub fn data(&self) -> Result<&PathBuf> {
+        self.data
+            .as_ref()
+            .ok_or_else(|| anyhow::anyhow!("--data <DIR> is required (the dataset to train on)"))
+    }
+
     /// The training configuration these options describe.
     pub fn config(&self) -> Result<TrainConfig> {
         let mut c = match &self.config {
@@ -153,6 +174,12 @@ impl TrainOptions {
         }
         if self.rank.is_some() {
             c.output_rank = self.rank;
+        }
+        if let Some(v) = self.physics_weight {
+            c.physics.weight = v;
+        }
+        if let Some(v) = self.physics_batch {
+            c.physics.batch_size = v;
         }
         if let Some(v) = self.alpha {
             c.alpha = v;
@@ -210,6 +237,18 @@ pub struct TrainArgs {
     /// settings; after a divergence, with a lower `--lr` (the change is recorded).
     #[arg(long)]
     pub resume: bool,
+    /// Train from the solver's drape energy alone, with no dataset (`--data` is not read):
+    /// both nets together, on (pose, fabric) pairs drawn every step, for the T-shirt at
+    /// `--resolution` on the neutral body. `--batch-size` is the pairs per step,
+    /// `--patience-local` the early-stopping patience on a fixed held-out batch.
+    #[arg(long)]
+    pub physics_only: bool,
+    /// The T-shirt's resolution for `--physics-only`: coarse, default or paper.
+    #[arg(long, default_value = "default")]
+    pub resolution: String,
+    /// Steps (fresh pairs each) per epoch of `--physics-only`.
+    #[arg(long, default_value_t = 50)]
+    pub steps_per_epoch: usize,
 }
 
 /// Train the TailorNet-style baseline: one pose-only net per target material.
@@ -245,7 +284,44 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
         // The way on after a divergence: `--resume` with a lower `--lr`.
         learning_rate_may_fall: args.resume,
     };
-    let summary = train(&args.options.data, &args.out, &config, &options)?;
+    if args.physics_only {
+        let resolution = Resolution::ALL
+            .into_iter()
+            .find(|r| r.name().eq_ignore_ascii_case(args.resolution.trim()))
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--resolution {}: use coarse, default or paper",
+                    args.resolution
+                )
+            })?;
+        // Unset flags take physics-only training's defaults, not supervised training's.
+        let (o, d) = (&args.options, PhysicsOnlyConfig::default().train);
+        let physics = PhysicsOnlyConfig {
+            train: TrainConfig {
+                batch_size: o.batch_size.unwrap_or(d.batch_size),
+                max_epochs: o.max_epochs.unwrap_or(d.max_epochs),
+                patience_local: o.patience_local.unwrap_or(d.patience_local),
+                dropout: o.dropout.unwrap_or(d.dropout),
+                ..config
+            },
+            resolution,
+            steps_per_epoch: args.steps_per_epoch,
+            ..PhysicsOnlyConfig::default()
+        };
+        let s = train_physics_only(&args.out, &physics, &options)?;
+        outln!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "finished": s.finished,
+                "model_path": s.model_path,
+                "checkpoint_dir": s.checkpoint_dir,
+                "resumed_from_epoch": s.resumed_from,
+                "progress": s.progress,
+            }))?
+        )?;
+        return Ok(());
+    }
+    let summary = train(args.options.data()?, &args.out, &config, &options)?;
     outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     Ok(())
 }
@@ -253,7 +329,7 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
 /// Runs `train-baseline`.
 pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
     let config = BaselineConfig::from_train_config(&args.options.config()?);
-    let manifest = train_baseline(&args.options.data, &args.out, &config)?;
+    let manifest = train_baseline(args.options.data()?, &args.out, &config)?;
     // How each material's nets trained; the normalisers and the rest of the manifest stay in
     // `baseline.json` (printed whole they ran to 130,000 lines for a 30 x 200 dataset).
     let materials: Vec<_> = manifest
@@ -285,7 +361,7 @@ pub fn run_sweep_alpha(args: &SweepAlphaArgs) -> Result<()> {
         device: config.device.clone(),
         ..EvalConfig::default()
     };
-    let rows = sweep_alpha(&args.options.data, &args.out, &alphas, &config, &eval)?;
+    let rows = sweep_alpha(args.options.data()?, &args.out, &alphas, &config, &eval)?;
     outln!("{}", serde_json::to_string_pretty(&rows)?)?;
     Ok(())
 }

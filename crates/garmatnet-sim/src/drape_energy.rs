@@ -5,10 +5,102 @@
 //! with its gradient, its positive semi-definite Hessian approximation and energy
 //! differences computed term by term (so the line search can compare energies near
 //! convergence, where the total is dominated by gravity and rounding would hide the change).
+//!
+//! This is the one definition of the drape's potential: [`drape_energy_and_gradient`] and
+//! [`contact_stiffness`] expose it (per term) for code that evaluates the same energy
+//! elsewhere, such as the training crate's differentiable version. Friction is not part
+//! of it: it is path-dependent (it charges slip from where each vertex settled), so no
+//! potential of the positions alone describes it; the solver adds it as a lagged potential
+//! per drape (`contact.rs`).
 
-use garmatnet_core::{Mat3, Real, SignedDistance, Vec3, unit_normal};
+use garmatnet_core::error::ensure_finite;
+use garmatnet_core::{Error as CoreError, Mat3, Real, SignedDistance, Vec3, unit_normal};
 
 use crate::cloth_model::ClothModel;
+use crate::drape_settings::DrapeSettings;
+use crate::error::Result;
+
+/// The drape energy split by term (joules).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EnergyTerms {
+    /// `Σ_s k_s/2 (|x_a - x_b| - L_s)²` over every spring (structural, shear, flexion).
+    pub springs: Real,
+    /// `Σ_i m_i g y_i`: gravity's potential, zero at `y = 0`.
+    pub gravity: Real,
+    /// `Σ_i k_c,i/2 max(0, margin - φ(x_i))²` plus the hardening inside the body
+    /// ([`DrapeSettings::contact_hardening`]).
+    pub contact: Real,
+}
+
+impl EnergyTerms {
+    /// The total (joules).
+    #[must_use]
+    pub fn total(&self) -> Real {
+        self.springs + self.gravity + self.contact
+    }
+}
+
+/// The contact penalty stiffness of each vertex (N/m): [`DrapeSettings::contact_stiffness_ratio`]
+/// times the sum of the vertex's incident spring stiffnesses, at least
+/// [`DrapeSettings::min_contact_stiffness`]. The solver's own penalty.
+#[must_use]
+pub fn contact_stiffness(model: &ClothModel, settings: &DrapeSettings) -> Vec<Real> {
+    let mut incident = vec![0.0; model.vertex_count()];
+    for s in model.springs() {
+        incident[s.a] += s.stiffness;
+        incident[s.b] += s.stiffness;
+    }
+    let (ratio, floor) = (
+        settings.contact_stiffness_ratio,
+        settings.min_contact_stiffness,
+    );
+    incident.iter().map(|k| (ratio * k).max(floor)).collect()
+}
+
+/// The solver's conservative drape energy of `model` at positions `x` (metres) against
+/// `collider`, by term, and its gradient (newtons, one per vertex), with no vertex pinned.
+/// Friction is left out (see the [module](self) docs). The reference for any other
+/// implementation of the energy.
+///
+/// # Errors
+/// - As [`DrapeSettings::validate`] for invalid settings;
+/// - [`CoreError::WrongLength`] if `x` does not have one position per vertex;
+/// - [`CoreError::NonFinite`] for NaN or infinite positions.
+pub fn drape_energy_and_gradient(
+    model: &ClothModel,
+    settings: &DrapeSettings,
+    collider: &impl SignedDistance,
+    x: &[Vec3],
+) -> Result<(EnergyTerms, Vec<Vec3>)> {
+    settings.validate()?;
+    let n = model.vertex_count();
+    if x.len() != n {
+        return Err(CoreError::WrongLength {
+            what: "cloth positions".into(),
+            expected: n.to_string(),
+            got: x.len(),
+        }
+        .into());
+    }
+    ensure_finite(
+        "cloth positions (metres)",
+        x.iter().flat_map(|v| [v.x, v.y, v.z]),
+    )?;
+    let stiffness = contact_stiffness(model, settings);
+    let pinned = vec![false; n];
+    let energy = DrapeEnergy {
+        model,
+        gravity: settings.gravity,
+        margin: settings.contact_margin,
+        contact_stiffness: &stiffness,
+        hardening: settings.contact_hardening,
+        is_pinned: &pinned,
+    };
+    let mut contacts = vec![None; n];
+    let mut gradient = vec![Vec3::zeros(); n];
+    energy.gradient(x, collider, &mut contacts, &mut gradient);
+    Ok((energy.terms(x, &contacts), gradient))
+}
 
 /// A vertex within the contact margin of the collider.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,13 +120,14 @@ impl Contact {
     }
 }
 
-/// Depth inside the collider (metres) where the penalty's hardening begins. Newton steps
+/// Depth inside the collider (metres) where the penalty's hardening
+/// ([`DrapeSettings::contact_hardening`]) begins. Newton steps
 /// put cloth a fraction of a millimetre into the body on their way and the plain penalty
 /// pushes it back; hardening those transients changed the path: Cotton Poplin's 12-frame
 /// gentle walk at paper resolution, whose drapes never end inside the body, took 1,333
 /// settle iterations with the hardening from the surface against 1,064 without, and the
 /// same 1,064 with it from 1 mm (or 3 mm) down.
-const HARDENING_DEPTH: Real = 1e-3;
+pub const HARDENING_DEPTH: Real = 1e-3;
 
 /// The energy's constant data for one drape.
 #[derive(Debug, Clone, Copy)]
@@ -106,6 +199,34 @@ impl DrapeEnergy<'_> {
             0.0
         };
         self.contact_stiffness[i] * (1.0 + hard)
+    }
+
+    /// The energy at `x` by term (joules), with `contacts` those at `x` ([`Self::gradient`]
+    /// fills them). Pinned vertices count for nothing but their springs.
+    pub(crate) fn terms(&self, x: &[Vec3], contacts: &[Option<Contact>]) -> EnergyTerms {
+        let masses = self.model.masses();
+        let mut terms = EnergyTerms::default();
+        for i in 0..x.len() {
+            if self.is_pinned[i] {
+                continue;
+            }
+            terms.gravity += masses[i] * self.gravity * x[i].y;
+            if let Some(c) = &contacts[i] {
+                let gap = self.margin - c.distance;
+                terms.contact += 0.5 * self.contact_stiffness[i] * gap * gap
+                    + self.hardening_energy(i, c.distance);
+            }
+        }
+        terms.springs = self
+            .model
+            .springs()
+            .iter()
+            .map(|s| {
+                let stretch = (x[s.a] - x[s.b]).norm() - s.rest_length;
+                0.5 * s.stiffness * stretch * stretch
+            })
+            .sum();
+        terms
     }
 
     /// Fills `contacts` and `gradient` (newtons; zero on pinned vertices) at `x`.
@@ -361,5 +482,89 @@ mod tests {
                 assert_relative_eq!(g[i][c], fd, epsilon = 1e-5, max_relative = 1e-6);
             }
         }
+    }
+
+    #[test]
+    fn public_energy_is_the_solvers_change_and_its_gradient_the_derivative() {
+        let sphere = Sphere {
+            centre: Vec3::zeros(),
+            radius: 1.0,
+        };
+        let x0 = vec![
+            Vec3::new(0.0, 1.002, 0.0),
+            // 5 mm inside: the hardening acts.
+            Vec3::new(0.6, 0.795, 0.0),
+            Vec3::new(0.1, 1.3, 0.2),
+        ];
+        let springs = [
+            SpringSpec {
+                a: 0,
+                b: 1,
+                rest_length: 0.25,
+                stiffness: 40.0,
+            },
+            SpringSpec {
+                a: 1,
+                b: 2,
+                rest_length: 0.5,
+                stiffness: 7.0,
+            },
+        ];
+        let model = ClothModel::new(&x0, &springs, &[0.1, 0.2, 0.3]).unwrap();
+        let settings = DrapeSettings::default();
+        let (terms, g) = drape_energy_and_gradient(&model, &settings, &sphere, &x0).unwrap();
+        assert!(terms.contact > 0.0 && terms.springs > 0.0);
+        let stiffness = contact_stiffness(&model, &settings);
+        assert_eq!(stiffness, vec![300.0; 3], "the default floor");
+        let pinned = [false; 3];
+        let e = DrapeEnergy {
+            model: &model,
+            gravity: settings.gravity,
+            margin: settings.contact_margin,
+            contact_stiffness: &stiffness,
+            is_pinned: &pinned,
+            hardening: settings.contact_hardening,
+        };
+        let none = vec![None; 3];
+        let x1: Vec<Vec3> = x0.iter().map(|p| p * 1.001).collect();
+        let (terms1, _) = drape_energy_and_gradient(&model, &settings, &sphere, &x1).unwrap();
+        let contacts0: Vec<_> = (0..3).map(|i| e.contact(i, &x0[i], &sphere)).collect();
+        assert_relative_eq!(
+            terms1.total() - terms.total(),
+            e.change(&x0, &x1, &contacts0, &sphere),
+            max_relative = 1e-9
+        );
+        assert!(
+            e.change(&x0, &x0, &none, &sphere).abs() > 0.0,
+            "contacts count"
+        );
+        let h = 1e-7;
+        for i in 0..3 {
+            for c in 0..3 {
+                let (mut xp, mut xm) = (x0.clone(), x0.clone());
+                xp[i][c] += h;
+                xm[i][c] -= h;
+                let total = |x: &[Vec3]| {
+                    drape_energy_and_gradient(&model, &settings, &sphere, x)
+                        .unwrap()
+                        .0
+                        .total()
+                };
+                let fd = (total(&xp) - total(&xm)) / (2.0 * h);
+                assert_relative_eq!(g[i][c], fd, epsilon = 1e-4, max_relative = 1e-5);
+            }
+        }
+        let short = drape_energy_and_gradient(&model, &settings, &sphere, &x0[..2]);
+        assert!(matches!(
+            short,
+            Err(crate::Error::Core(CoreError::WrongLength { got: 2, .. }))
+        ));
+        let mut nan = x0.clone();
+        nan[1].y = Real::NAN;
+        let bad = drape_energy_and_gradient(&model, &settings, &sphere, &nan);
+        assert!(matches!(
+            bad,
+            Err(crate::Error::Core(CoreError::NonFinite { .. }))
+        ));
     }
 }

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloth_model::ClothModel;
 use crate::contact::{Friction, push_out};
-use crate::drape_energy::{Contact, DrapeEnergy};
+use crate::drape_energy::{Contact, DrapeEnergy, contact_stiffness};
 use crate::drape_settings::{DrapeSettings, MAX_EXPANSION};
 use crate::error::{Error, Result};
 use crate::newton_system::NewtonSystem;
@@ -181,17 +181,15 @@ impl DrapeSolver {
         self.system.factor_len()
     }
 
+    /// The contact penalty stiffness of each vertex (N/m), as [`contact_stiffness`] gives
+    /// it for the model and settings.
+    #[must_use]
+    pub fn contact_stiffness(&self) -> &[Real] {
+        &self.contact_stiffness
+    }
+
     fn update_weights(&mut self) {
-        let mut incident = vec![0.0; self.model.vertex_count()];
-        for s in self.model.springs() {
-            incident[s.a] += s.stiffness;
-            incident[s.b] += s.stiffness;
-        }
-        let (ratio, floor) = (
-            self.settings.contact_stiffness_ratio,
-            self.settings.min_contact_stiffness,
-        );
-        self.contact_stiffness = incident.iter().map(|k| (ratio * k).max(floor)).collect();
+        self.contact_stiffness = contact_stiffness(&self.model, &self.settings);
     }
 
     /// Drapes the cloth from `positions` (metres; the warm start, e.g. the previous pose's

@@ -13,7 +13,7 @@ pub mod contact;
 pub mod dataset;
 pub mod dataset_generator;
 pub mod dataset_reader;
-mod drape_energy;
+pub mod drape_energy;
 pub mod drape_settings;
 pub mod drape_solver;
 pub mod error;
@@ -43,6 +43,9 @@ pub use dataset_generator::{
 };
 pub use sample_deriver::{BODY_NAME, SampleDeriver};
 pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
+pub use drape_energy::{
+    EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
+};
 pub use drape_settings::{DrapeSettings, FactorPrecision};
 pub use drape_solver::{DrapeSolver, DrapeStats};
 pub use error::{Error, Result, SpecField};

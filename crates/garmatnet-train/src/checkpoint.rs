@@ -33,6 +33,8 @@ pub enum Phase {
     Fitting,
     /// The locally-detailed net.
     Local,
+    /// Both nets together, from the drape energy alone ([`crate::train_physics_only`]).
+    Physics,
 }
 
 impl Phase {
@@ -42,6 +44,7 @@ impl Phase {
         match self {
             Phase::Fitting => "fitting",
             Phase::Local => "local",
+            Phase::Physics => "physics",
         }
     }
 }

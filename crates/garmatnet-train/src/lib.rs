@@ -9,6 +9,8 @@
 //! - [`evaluate`]: Table 2's errors, per-pose plots (Figs. 7–8), heat maps (Figs. 11–12),
 //!   push-out, timing and sizes, written as a [`Report`].
 //! - [`sweep_alpha`]: Table 3.
+//! - [`ClothTensors::energy`] ([`physics`]): the solver's drape energy in tensors, for
+//!   physics-informed training.
 //! - [`evaluate_calibration`]: how much calibrating each fabric with one of its drapes
 //!   ([`garmatnet_model::calibration`]) helps at its other poses.
 //!
@@ -37,6 +39,7 @@ mod fabric_reference;
 mod figures;
 pub mod harness;
 mod pca;
+pub mod physics;
 pub mod plots;
 mod prediction_errors;
 pub mod progress;
@@ -62,6 +65,11 @@ pub use dataset_loader::{
 pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
+pub use physics::{
+    BodyField, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
+    PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PoseSource, TwoNetPhysicsLoss,
+    rest_offset_normalizers, train_physics_only, uniform_fabric,
+};
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{

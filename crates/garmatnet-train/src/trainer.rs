@@ -16,15 +16,17 @@ use garmatnet_model::{
     GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, PoseEncoding,
     TemplateInfo, TrainingProvenance, select_device,
 };
+use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
 use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
 use crate::error::{Error, Result};
+use crate::physics::{LocalPhysics, NormalizerTensors, PhysicsConfig};
 use crate::split::SplitConfig;
 use crate::training_loop::{
-    LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, epoch_progress, fit_net,
-    fit_normalizer, initial_progress,
+    ExtraLoss, LearningRateSchedule, LoopSettings, NetSets, Outcome, Part, epoch_progress, fit_net,
+    fit_net_with, fit_normalizer, initial_progress,
 };
 
 /// Everything that defines a GarMatNet training run (CLI options map onto these fields).
@@ -83,6 +85,13 @@ pub struct TrainConfig {
     pub split: SplitConfig,
     /// Accept a dataset with missing samples (train on what exists).
     pub allow_incomplete_dataset: bool,
+    /// Hybrid physics-informed training (issue 49): the locally-detailed net's loss adds
+    /// `physics.weight` times the normalised drape energy of the full prediction at
+    /// (pose, fabric) pairs drawn every step ([`PhysicsConfig`]). Off by default; not
+    /// written while off, so a default run's fingerprint, and the checkpoints of runs begun
+    /// before the option, stay valid.
+    #[serde(skip_serializing_if = "PhysicsConfig::is_off")]
+    pub physics: PhysicsConfig,
     /// Compute device: `cpu`, `gpu` or `auto`.
     pub device: String,
     /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
@@ -114,6 +123,7 @@ impl Default for TrainConfig {
             displacement_frame: DisplacementFrame::Canonical,
             split: SplitConfig::default(),
             allow_incomplete_dataset: false,
+            physics: PhysicsConfig::default(),
             device: "cpu".into(),
             quiet: false,
         }
@@ -134,6 +144,7 @@ impl TrainConfig {
             patience_local: self.patience_local,
             weight_decay: self.weight_decay,
         })?;
+        self.physics.validate()?;
         GarMatNetConfig {
             output_rank: None,
             ..self.net_config(1)
@@ -621,13 +632,34 @@ pub fn train(
     }
     .merge(saved.filter(|s| s.phase == Phase::Local));
     let sets = NetSets::new(&train_set, &dev_set, Part::Local, &local_norm, &ad);
-    let outcome = fit_net(
+    let mut physics = if config.physics.is_off() {
+        None
+    } else {
+        let solver = SequenceSettings::from_manifest(&data.spec().solver).map_err(|e| {
+            Error::InvalidConfig(format!(
+                "the physics term needs the dataset's solver settings, unreadable: {e}"
+            ))
+        })?;
+        Some(LocalPhysics {
+            config: config.physics.clone(),
+            fitting: fitting_net.clone().valid(),
+            fitting_norm: fitting_norm.clone(),
+            local_norm: NormalizerTensors::new(&local_norm, &ad),
+            garment: data.garment().clone(),
+            body: data.body().clone(),
+            settings: solver.drape,
+            frame,
+            device: ad.clone(),
+        })
+    };
+    let outcome = fit_net_with(
         fresh_local,
         &sets,
         &settings(Phase::Local, config.patience_local),
         Some((&checkpoint, &mut local_state)),
         &mut budget,
         &progress,
+        physics.as_mut().map(|p| p as &mut dyn ExtraLoss<GarMatNet>),
     )?;
     let Outcome::Done(local_net, local_progress) = outcome else {
         return Ok(summary);
@@ -747,6 +779,7 @@ pub(crate) mod tests {
         assert!(json.get("pose_encoding").is_none(), "{json}");
         assert!(json["split"].get("max_train_residual").is_none(), "{json}");
         assert!(json.get("weight_decay").is_none(), "{json}");
+        assert!(json.get("physics").is_none(), "{json}");
         let base = TrainConfig::default().fingerprint("d");
         let cosine = TrainConfig {
             learning_rate_schedule: LearningRateSchedule::Cosine,
@@ -1060,6 +1093,76 @@ pub(crate) mod tests {
         let (a, b) = (full.local.unwrap(), last.local.unwrap());
         assert_eq!(a.best_dev_mse, b.best_dev_mse, "resumed local net differs");
         assert_eq!(a.last_train_mse, b.last_train_mse);
+    }
+
+    /// Hybrid training (`--physics-weight`): a toy run trains, its local net's train loss
+    /// carries the energy term, and a run killed in the local phase resumes to the
+    /// uninterrupted run's numbers (the pairs are drawn from the checkpointed RNG).
+    #[test]
+    fn a_hybrid_run_trains_with_the_energy_term_and_resumes_exactly() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let config = TrainConfig {
+            physics: PhysicsConfig {
+                weight: 0.05,
+                batch_size: 2,
+                ..PhysicsConfig::default()
+            },
+            ..tiny_config(3)
+        };
+        assert_ne!(
+            config.fingerprint("d"),
+            tiny_config(3).fingerprint("d"),
+            "the physics term changes the run"
+        );
+        let supervised = train(
+            &data,
+            &dir.path().join("supervised.safetensors"),
+            &tiny_config(3),
+            &RunOptions::default(),
+        )
+        .unwrap();
+        let full_path = dir.path().join("full.safetensors");
+        let full = train(&data, &full_path, &config, &RunOptions::default()).unwrap();
+        assert!(full.finished && full_path.exists());
+        let (plain, hybrid) = (supervised.local.unwrap(), full.local.clone().unwrap());
+        assert_eq!(
+            supervised.fitting.unwrap().best_dev_mse,
+            full.fitting.clone().unwrap().best_dev_mse,
+            "the fitting net is trained as before"
+        );
+        // The energy per unit weight includes the garment's mean height (about a metre), so
+        // the hybrid's train loss carries λ times about that on top of the MSE.
+        assert!(
+            hybrid.last_train_mse.is_finite()
+                && hybrid.last_train_mse > plain.last_train_mse + 0.02,
+            "{} vs {}",
+            hybrid.last_train_mse,
+            plain.last_train_mse
+        );
+        let path = dir.path().join("resumed.safetensors");
+        let stop = |n| RunOptions {
+            resume: true,
+            stop_after_epochs: Some(n),
+            ..RunOptions::default()
+        };
+        let first = train(&data, &path, &config, &stop(4)).unwrap();
+        assert!(!first.finished);
+        let last = train(&data, &path, &config, &stop(100)).unwrap();
+        assert_eq!(last.resumed_from, Some((Phase::Local, 1)));
+        let (a, b) = (full.local.unwrap(), last.local.unwrap());
+        assert_eq!(a.best_dev_mse, b.best_dev_mse, "resumed local net differs");
+        assert_eq!(a.last_train_mse, b.last_train_mse);
+        let bad = TrainConfig {
+            physics: PhysicsConfig {
+                weight: -1.0,
+                ..PhysicsConfig::default()
+            },
+            ..tiny_config(3)
+        };
+        assert!(matches!(bad.validate(), Err(Error::InvalidConfig(_))));
     }
 
     #[test]

@@ -291,15 +291,36 @@ pub(crate) fn mean_loss<M: Trainable>(net: &M, set: &DeviceSet) -> f64 {
     sum / set.len.max(1) as f64
 }
 
+/// A loss term added to every training step's supervised loss (the hybrid physics term).
+pub(crate) trait ExtraLoss<M> {
+    /// The term for `net` at one step (`[1]`, on the autodiff device), drawing any
+    /// randomness from `rng` (seeded from the epoch's state, so a resumed run repeats it).
+    fn loss(&mut self, net: &M, rng: &mut SplitMix64) -> Result<Tensor<1>>;
+}
+
 /// Trains `net` (on the autodiff device) with early stopping, resuming from `checkpoint`'s
 /// state when its progress is past epoch 0.
 pub(crate) fn fit_net<M: Trainable>(
     net: M,
     sets: &NetSets,
     settings: &LoopSettings,
+    checkpoint: Option<(&CheckpointDir, &mut CheckpointState)>,
+    budget: &mut Option<usize>,
+    progress: &Progress,
+) -> Result<Outcome<M>> {
+    fit_net_with(net, sets, settings, checkpoint, budget, progress, None)
+}
+
+/// As [`fit_net`], with `extra`'s term added to each step's loss. The early stopping still
+/// watches the supervised dev loss alone.
+pub(crate) fn fit_net_with<M: Trainable>(
+    net: M,
+    sets: &NetSets,
+    settings: &LoopSettings,
     mut checkpoint: Option<(&CheckpointDir, &mut CheckpointState)>,
     budget: &mut Option<usize>,
     progress: &Progress,
+    mut extra: Option<&mut dyn ExtraLoss<M>>,
 ) -> Result<Outcome<M>> {
     // The configs are validated before training; a zero here would end the loop before its
     // first epoch and hand back an untrained net with an infinite "best" dev loss.
@@ -366,7 +387,10 @@ pub(crate) fn fit_net<M: Trainable>(
                 sets.train.materials.clone().select(0, index.clone()),
             );
             let target = sets.train.targets.clone().select(0, index);
-            let loss = MseLoss::new().forward(pred, target, Reduction::Mean);
+            let mut loss = MseLoss::new().forward(pred, target, Reduction::Mean);
+            if let Some(extra) = extra.as_mut() {
+                loss = loss + extra.loss(&net, &mut rng)?;
+            }
             let value = f64::from(loss.clone().into_scalar::<f32>());
             if !value.is_finite() || value > DIVERGENCE_LOSS {
                 return Err(diverged(

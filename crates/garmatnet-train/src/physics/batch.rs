@@ -1,0 +1,204 @@
+//! The (pose, fabric) pairs of physics-informed training, drawn continuously: fabrics
+//! uniform in normalised ω, poses from any [`PoseSource`] (by default
+//! [`JointLimits::sample`]), and everything a batch's energy needs as tensors.
+
+use burn::prelude::*;
+use burn::tensor::DType;
+use garmatnet_core::{
+    CapsuleBody, DisplacementFrame, Garment, JointLimits, MATERIAL_DIM, Material, POSE_DIM, Pose,
+    PosedBody, Real, SplitMix64,
+};
+use garmatnet_sim::{DrapeSettings, cloth_from_garment};
+
+use crate::error::Result;
+use crate::physics::energy::ClothTensors;
+
+/// Where physics-informed training draws its poses: [`JointLimitsPoses`], a pose file's
+/// frames, or any closure `FnMut(&mut SplitMix64) -> Pose` (a dedicated pose sampler slots
+/// in here).
+pub trait PoseSource {
+    /// The next pose, drawing any randomness from `rng`.
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose;
+}
+
+impl<F: FnMut(&mut SplitMix64) -> Pose> PoseSource for F {
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose {
+        self(rng)
+    }
+}
+
+/// Poses drawn by [`JointLimits::sample`] at `amplitude` (0 to 1 of each joint's range).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointLimitsPoses {
+    /// The joint limits.
+    pub limits: JointLimits,
+    /// Fraction of each joint's range drawn from (dimensionless, 0 to 1).
+    pub amplitude: Real,
+}
+
+impl Default for JointLimitsPoses {
+    fn default() -> Self {
+        Self {
+            limits: JointLimits::default(),
+            amplitude: 0.5,
+        }
+    }
+}
+
+impl PoseSource for JointLimitsPoses {
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose {
+        self.limits.sample(rng, self.amplitude)
+    }
+}
+
+/// A fabric uniform in normalised ω (`[0, 1]⁶`, log-uniform in each physical component
+/// between the standard bounds).
+///
+/// # Errors
+/// Never for the standard bounds; as [`Material::from_normalized`] otherwise.
+pub fn uniform_fabric(rng: &mut SplitMix64) -> Result<Material> {
+    let omega: [Real; MATERIAL_DIM] = std::array::from_fn(|_| rng.next_f64());
+    Ok(Material::from_normalized(omega)?)
+}
+
+/// One batch of physics-informed training on the autodiff device: the nets' inputs, the
+/// energy's constants and the body frame that turns predicted displacements into garment
+/// positions.
+#[derive(Debug, Clone)]
+pub struct PhysicsBatch {
+    /// Poses (axis-angle, radians), `[B, 72]`.
+    pub poses: Tensor<2>,
+    /// Normalised ω, `[B, 6]`.
+    pub materials: Tensor<2>,
+    /// The energy's per-sample cloth constants.
+    pub cloth: ClothTensors,
+    /// The posed bodies, one per sample.
+    pub bodies: Vec<PosedBody>,
+    /// Each vertex's posed body anchor (metres), `[B, n, 3]`.
+    anchors: Tensor<3>,
+    /// Each vertex's frame rotation (row-major 3 × 3; identity for the world frame),
+    /// `[B, n, 3, 3]`.
+    frames: Tensor<4>,
+    pose_rows: Vec<f32>,
+    omega_rows: Vec<f32>,
+}
+
+impl PhysicsBatch {
+    /// Draws `size` (pose, fabric) pairs: poses from `poses`, fabrics uniform in normalised
+    /// ω, on `device` in f32.
+    ///
+    /// # Errors
+    /// As [`cloth_from_garment`] and [`ClothTensors::new`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw(
+        garment: &Garment,
+        body: &CapsuleBody,
+        settings: &DrapeSettings,
+        frame: DisplacementFrame,
+        poses: &mut dyn PoseSource,
+        rng: &mut SplitMix64,
+        size: usize,
+        device: &Device,
+    ) -> Result<Self> {
+        let (mut pose_rows, mut omega_rows) = (Vec::new(), Vec::new());
+        let (mut models, mut posed) = (Vec::new(), Vec::new());
+        let (mut anchors, mut frames) = (Vec::new(), Vec::new());
+        for _ in 0..size {
+            let pose = poses.next_pose(rng);
+            let material = uniform_fabric(rng)?;
+            pose_rows.extend(pose.to_vec().into_iter().map(|v| v as f32));
+            omega_rows.extend(material.to_normalized().into_iter().map(|v| v as f32));
+            models.push(cloth_from_garment(garment, &material)?);
+            let p = body.pose(&pose);
+            let t = p.skinning_transforms();
+            for a in &garment.anchors {
+                anchors.extend(a.posed_point(t).iter().map(|&v| v as f32));
+                let r = match frame {
+                    DisplacementFrame::World => garmatnet_core::Mat3::identity(),
+                    DisplacementFrame::Canonical => a.frame(t).to_rotation_matrix().into_inner(),
+                };
+                // Row-major, world[i] = Σ_j r[(i, j)] d[j].
+                for i in 0..3 {
+                    for j in 0..3 {
+                        frames.push(r[(i, j)] as f32);
+                    }
+                }
+            }
+            posed.push(p);
+        }
+        let n = garment.vertex_count();
+        let model_refs: Vec<_> = models.iter().collect();
+        Ok(Self {
+            poses: Tensor::from_data(TensorData::new(pose_rows.clone(), [size, POSE_DIM]), device),
+            materials: Tensor::from_data(
+                TensorData::new(omega_rows.clone(), [size, MATERIAL_DIM]),
+                device,
+            ),
+            pose_rows,
+            omega_rows,
+            cloth: ClothTensors::new(&model_refs, settings, device, DType::F32)?,
+            bodies: posed,
+            anchors: Tensor::from_data(TensorData::new(anchors, [size, n, 3]), device),
+            frames: Tensor::from_data(TensorData::new(frames, [size, n, 3, 3]), device),
+        })
+    }
+
+    /// The nets' inputs (poses `[B, 72]`, normalised ω `[B, 6]`) on another device, such
+    /// as the plain device of a finished net.
+    #[must_use]
+    pub fn inputs_on(&self, device: &Device) -> (Tensor<2>, Tensor<2>) {
+        let size = self.pose_rows.len() / POSE_DIM;
+        (
+            Tensor::from_data(
+                TensorData::new(self.pose_rows.clone(), [size, POSE_DIM]),
+                device,
+            ),
+            Tensor::from_data(
+                TensorData::new(self.omega_rows.clone(), [size, MATERIAL_DIM]),
+                device,
+            ),
+        )
+    }
+
+    /// Garment positions (metres) from displacements in the batch's frame (metres): each
+    /// vertex's posed anchor plus its displacement rotated into the world.
+    ///
+    /// # Shapes
+    /// `displacements`: `[B, 3n]` → `[B, n, 3]`.
+    #[must_use]
+    pub fn positions(&self, displacements: Tensor<2>) -> Tensor<3> {
+        let [batch, n, _] = self.anchors.dims();
+        let d = displacements.reshape([batch, n, 1, 3]);
+        let world: Tensor<3> = (self.frames.clone() * d).sum_dim(3).squeeze_dim(3);
+        self.anchors.clone() + world
+    }
+
+    /// Displacements (metres, in the batch's frame) of garment positions (metres): the
+    /// inverse of [`PhysicsBatch::positions`].
+    ///
+    /// # Shapes
+    /// `positions`: `[B, n, 3]` → `[B, 3n]`.
+    #[must_use]
+    pub fn displacements(&self, positions: Tensor<3>) -> Tensor<2> {
+        let [batch, n, _] = self.anchors.dims();
+        let world = (positions - self.anchors.clone()).reshape([batch, n, 3, 1]);
+        // Rᵀ w: sum over the rows of R.
+        let d: Tensor<3> = (self.frames.clone() * world).sum_dim(2).squeeze_dim(2);
+        d.reshape([batch, 3 * n])
+    }
+
+    /// Each sample's drape energy per unit weight, `E / Σ m g` (metres): gravity's part is
+    /// the garment's mass-weighted mean height, whatever the fabric; the springs' and the
+    /// contact's are in the same units, so heavy or stiff fabrics do not dominate the batch
+    /// through their scale alone.
+    ///
+    /// # Shapes
+    /// `positions`: `[B, n, 3]` → `[B]`.
+    ///
+    /// # Errors
+    /// As [`ClothTensors::energy`].
+    pub fn normalised_energy(&self, positions: Tensor<3>) -> Result<Tensor<1>> {
+        let e = self.cloth.energy(positions, &self.bodies)?;
+        Ok(e.total() / self.cloth.weight())
+    }
+}
