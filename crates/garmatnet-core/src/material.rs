@@ -42,7 +42,6 @@
 //! ```
 
 use std::fmt;
-use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
@@ -374,7 +373,6 @@ impl Material {
             (va[i].powf(1.0 - t) * vb[i].powf(t)).clamp(lo, hi)
         })))
     }
-
 }
 
 fn component_label(i: usize) -> String {
@@ -398,14 +396,13 @@ fn non_finite(i: usize) -> Error {
 }
 
 impl fmt::Display for Material {
-    /// `a,b,c,d,e,f` in ω's order and physical units: the format [`Material::from_str`]
+    /// `a,b,c,d,e,f` in ω's order and physical units: the format `Material::from_str` ([`std::str::FromStr`])
     /// reads back exactly (Rust prints the shortest round-tripping decimal).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let v = self.as_array();
         write!(f, "{},{},{},{},{},{}", v[0], v[1], v[2], v[3], v[4], v[5])
     }
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -18,8 +18,11 @@
 //! materials of the paper are present under their exact names: "Sherpa Fleece 160",
 //! "Silk Duchess Satin", "Trim Fusible Rigid" and "Cashmere".
 
+use std::str::FromStr;
+
 use crate::error::{Error, Result};
 use crate::material::Material;
+use crate::material_bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM};
 use crate::math::Real;
 
 /// A named fabric of the library.

@@ -4,9 +4,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, ensure_finite};
+use crate::joints::{JOINT_COUNT, JOINT_NAMES, MIRRORED_JOINTS};
 use crate::math::{Real, UnitQuat, Vec3};
 use crate::rng::SplitMix64;
-use crate::joints::{JOINT_COUNT, JOINT_NAMES, MIRRORED_JOINTS};
 
 /// The length of an SMPL pose vector: 24 joints × 3 axis-angle components.
 pub const POSE_DIM: usize = JOINT_COUNT * 3;

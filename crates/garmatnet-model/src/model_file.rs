@@ -511,7 +511,7 @@ fn stored_checksum(document: &str, tensors: &[Stored]) -> u64 {
 
 /// The hex form of a garment's template hash, as model files and dataset manifests store it.
 #[must_use]
-pub fn template_hash_hex(garment: &Garment) -> String {
+pub fn template_hash_hex(garment: &garmatnet_core::Garment) -> String {
     format!("{:016x}", garment.template_hash())
 }
 

@@ -7,6 +7,7 @@
 //! iterations, the mirror asymmetry on symmetric poses (mm) and the solver time; then one
 //! summary line per pose. `PRESETS=Denim,Spandex` and `POSES=arms-at-sides,sitting` limit the
 //! presets and poses (substring match, case-insensitive); `THREADS` sets rayon's pool;
+//! `SAMPLED=N` drapes the first N independent poses of seed 0 instead;
 //! `SOLVER=settings.json` drapes with other `SequenceSettings` (missing fields: defaults);
 //! `RENDER=DIR` writes a front and a side view of each drape on its body to `DIR`, the
 //! garment coloured by each vertex's largest spring stretch (red at `SOUND_STRETCH`).
@@ -15,7 +16,7 @@ use std::time::Instant;
 
 use garmatnet_core::{CapsuleBody, Garment, Real, Resolution, presets};
 use garmatnet_sim::{
-    CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses,
+    CanonicalDraper, EverydayPose, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses,
 };
 use rayon::prelude::*;
 
@@ -103,10 +104,29 @@ fn main() -> anyhow::Result<()> {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(resolution, &body)?;
     let mirror = MirrorMap::of_garment(&garment)?;
-    let poses: Vec<_> = everyday_poses()
-        .into_iter()
-        .filter(|p| keep(&pose_filter, p.name))
-        .collect();
+    let poses: Vec<EverydayPose> = match std::env::var("SAMPLED") {
+        // SAMPLED=N: the first N independent poses of seed 0 (as `simulate --poses N`
+        // draws them) instead of the everyday suite.
+        Ok(n) => {
+            let sampler = garmatnet_sim::PoseSampler::new(Default::default())?;
+            (0..n.parse::<u64>()?)
+                .map(|i| {
+                    Ok(EverydayPose {
+                        name: Box::leak(format!("sampled-{i}").into_boxed_str()),
+                        pose: sampler.pose(i)?,
+                        symmetric: false,
+                    })
+                })
+                .filter(|p: &anyhow::Result<EverydayPose>| {
+                    p.as_ref().map_or(true, |p| keep(&pose_filter, p.name))
+                })
+                .collect::<anyhow::Result<_>>()?
+        }
+        Err(_) => everyday_poses()
+            .into_iter()
+            .filter(|p| keep(&pose_filter, p.name))
+            .collect(),
+    };
     let chosen: Vec<_> = presets()
         .iter()
         .filter(|p| keep(&preset_filter, p.name))

@@ -16,10 +16,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use garmatnet_core::{
-    CapsuleBody, Garment, LaplacianSmoother, LaplacianWeights, Material, Pose, Resolution,
-    SkinnedBody, SmoothingSettings, Vec3,
-};
+use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution, SmoothingSettings, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -33,7 +30,7 @@ use crate::manifest::{
     TemplateInfo, sample_stem,
 };
 use crate::reuse::import_samples;
-use crate::sample_arrays::{SampleArrays, read_simulated};
+use crate::sample_arrays::read_simulated;
 use crate::sample_deriver::{BODY_NAME, SampleDeriver};
 use crate::shard::Shard;
 

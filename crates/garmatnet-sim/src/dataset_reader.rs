@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::{samples_dir, scan_samples};
-use crate::sample_deriver::SampleDeriver;
 use crate::manifest::{DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, revision_label};
 use crate::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
+use crate::sample_deriver::SampleDeriver;
 
 /// A dataset opened for reading. Samples come from their completion markers, so a directory
 /// whose manifest is stale (a killed run, merged shards) reads completely.

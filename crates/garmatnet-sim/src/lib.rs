@@ -41,7 +41,6 @@ pub use dataset::{DatasetWriter, scan_samples};
 pub use dataset_generator::{
     GenerateConfig, GenerateEvent, GenerateReport, SampleDone, dataset_spec, generate_dataset,
 };
-pub use sample_deriver::{BODY_NAME, SampleDeriver};
 pub use dataset_reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
 pub use drape_energy::{
     EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
@@ -70,6 +69,7 @@ pub use pose_sampler::{
 };
 pub use reuse::{ImportReport, import_samples};
 pub use sample_arrays::SampleArrays;
+pub use sample_deriver::{BODY_NAME, SampleDeriver};
 pub use self_intersection::{
     DEFAULT_ARM_GAP, SelfContact, SelfIntersection, THIGH_ROOT_FRACTION, UPPER_ARM_ROOT_FRACTION,
     self_intersection,

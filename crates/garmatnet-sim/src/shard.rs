@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Result};
 
 use crate::dataset::{DatasetWriter, ensure_same_spec, samples_dir, scan_samples};
-use crate::sample_deriver::SampleDeriver;
 use crate::manifest::{DatasetSpec, Manifest};
 use crate::sample_arrays::read_simulated;
+use crate::sample_deriver::SampleDeriver;
 
 /// A subset of a dataset's work: shard `index` of `count` takes the materials whose index
 /// `% count == index`.

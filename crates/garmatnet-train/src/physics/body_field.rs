@@ -14,7 +14,6 @@
 
 use burn::prelude::*;
 use garmatnet_core::{Error as CoreError, PosedBody, SignedDistance, Vec3};
-use rayon::prelude::*;
 
 use crate::error::Result;
 
@@ -56,7 +55,7 @@ impl BodyField {
             .try_into_vec_as::<f64>()
             .map_err(|e| CoreError::InvalidArgument(format!("garment positions: {e:?}")))?;
         let fields: Vec<(f64, Vec3)> = flat
-            .par_chunks_exact(3)
+            .chunks_exact(3)
             .enumerate()
             .map(|(k, p)| bodies[k / n].distance_and_gradient(&Vec3::new(p[0], p[1], p[2])))
             .collect();
