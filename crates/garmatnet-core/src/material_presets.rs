@@ -184,6 +184,57 @@ fn levenshtein(a: &[char], b: &[char]) -> usize {
     row[b.len()]
 }
 
+impl Material {
+    /// The preset with this name (case-, space-, hyphen- and underscore-insensitive).
+    ///
+    /// # Errors
+    /// [`Error::UnknownMaterial`] with the three closest preset names.
+    pub fn preset(name: &str) -> Result<Material> {
+        find_preset(name).map(|p| p.material)
+    }
+}
+
+impl FromStr for Material {
+    type Err = Error;
+
+    /// A preset name (see [`crate::material_presets`]) or six comma-separated physical
+    /// values in ω's order, e.g. `"1200,900,0.5,0.4,12,0.09"`; the result is validated
+    /// against the standard bounds (build stress-test materials with
+    /// [`Material::physical`]).
+    ///
+    /// # Errors
+    /// [`Error::UnknownMaterial`] for an unknown name; [`Error::WrongLength`] unless there
+    /// are six values; [`Error::InvalidArgument`] for a value that is not a number; then as
+    /// [`Material::validate`].
+    fn from_str(s: &str) -> Result<Self> {
+        let s = s.trim();
+        if !s.contains(',') {
+            return Material::preset(s);
+        }
+        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+        if parts.len() != MATERIAL_DIM {
+            return Err(Error::WrongLength {
+                what: "material value list".into(),
+                expected: format!("{MATERIAL_DIM} ({})", COMPONENT_NAMES.join(", ")),
+                got: parts.len(),
+            });
+        }
+        let mut values = [0.0; MATERIAL_DIM];
+        for (i, p) in parts.iter().enumerate() {
+            values[i] = p.parse::<Real>().map_err(|_| {
+                Error::InvalidArgument(format!(
+                    "material value {} (`{}`, {}) is not a number: `{p}`; give six numbers \
+                     separated by commas, or a preset name",
+                    i + 1,
+                    COMPONENT_NAMES[i],
+                    COMPONENT_UNITS[i]
+                ))
+            })?;
+        }
+        Material::from_array(values)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -326,56 +377,5 @@ mod tests {
         assert_eq!(l("kitten", "sitting"), 3);
         assert_eq!(l("", "abc"), 3);
         assert_eq!(l("felt", "felt"), 0);
-    }
-}
-
-impl Material {
-    /// The preset with this name (case-, space-, hyphen- and underscore-insensitive).
-    ///
-    /// # Errors
-    /// [`Error::UnknownMaterial`] with the three closest preset names.
-    pub fn preset(name: &str) -> Result<Material> {
-        find_preset(name).map(|p| p.material)
-    }
-}
-
-impl FromStr for Material {
-    type Err = Error;
-
-    /// A preset name (see [`crate::material_presets`]) or six comma-separated physical
-    /// values in ω's order, e.g. `"1200,900,0.5,0.4,12,0.09"`; the result is validated
-    /// against the standard bounds (build stress-test materials with
-    /// [`Material::physical`]).
-    ///
-    /// # Errors
-    /// [`Error::UnknownMaterial`] for an unknown name; [`Error::WrongLength`] unless there
-    /// are six values; [`Error::InvalidArgument`] for a value that is not a number; then as
-    /// [`Material::validate`].
-    fn from_str(s: &str) -> Result<Self> {
-        let s = s.trim();
-        if !s.contains(',') {
-            return Material::preset(s);
-        }
-        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-        if parts.len() != MATERIAL_DIM {
-            return Err(Error::WrongLength {
-                what: "material value list".into(),
-                expected: format!("{MATERIAL_DIM} ({})", COMPONENT_NAMES.join(", ")),
-                got: parts.len(),
-            });
-        }
-        let mut values = [0.0; MATERIAL_DIM];
-        for (i, p) in parts.iter().enumerate() {
-            values[i] = p.parse::<Real>().map_err(|_| {
-                Error::InvalidArgument(format!(
-                    "material value {} (`{}`, {}) is not a number: `{p}`; give six numbers \
-                     separated by commas, or a preset name",
-                    i + 1,
-                    COMPONENT_NAMES[i],
-                    COMPONENT_UNITS[i]
-                ))
-            })?;
-        }
-        Material::from_array(values)
     }
 }

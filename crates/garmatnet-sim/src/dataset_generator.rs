@@ -338,6 +338,10 @@ pub fn generate_dataset(
     Ok(report)
 }
 
+/// Drapes and records sample (material, pose) with a material's draper; returns whether
+/// it converged and its cost in milliseconds.
+type DrapeOne<'a> = dyn Fn(usize, usize, &CanonicalDraper) -> Result<(bool, f64)> + Sync + 'a;
+
 /// Drapes every unfinished canonical sample of `materials`, pose-major: all materials' first
 /// pose, then their second, and so on, handed out one at a time from a shared queue, so an
 /// interrupted run leaves every material with the same prefix of poses (a smaller dataset
@@ -353,7 +357,7 @@ fn canonical_samples(
     body: &CapsuleBody,
     materials: &[usize],
     is_done: &(dyn Fn(usize, usize) -> bool + Sync),
-    drape: &(dyn Fn(usize, usize, &CanonicalDraper) -> Result<(bool, f64)> + Sync),
+    drape: &DrapeOne<'_>,
     should_stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<(usize, usize, f64)> {
     use std::sync::atomic::{AtomicUsize, Ordering};
