@@ -118,7 +118,7 @@ pub fn sweep_alpha(
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.json"), &json)?;
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.md"), markdown(&rows).as_bytes())?;
     for f in ["alpha_sweep.json", "alpha_sweep.md"] {
-        crate::report::make_readable(&out_dir.join(f));
+        crate::files::make_readable(&out_dir.join(f));
     }
     Ok(rows)
 }

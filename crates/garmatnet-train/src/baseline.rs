@@ -373,7 +373,7 @@ pub fn train_baseline(
         .map_err(|e| Error::InvalidConfig(format!("cannot encode {BASELINE_MANIFEST}: {e}")))?;
     let manifest_path = out_dir.join(BASELINE_MANIFEST);
     garmatnet_core::write_bytes_atomic(&manifest_path, &json)?;
-    crate::report::make_readable(&manifest_path);
+    crate::files::make_readable(&manifest_path);
     Ok(manifest)
 }
 
@@ -552,7 +552,7 @@ fn write_net(path: &Path, net: &BaselineNet) -> Result<()> {
             message: format!("cannot encode the baseline net: {e}"),
         })?;
     garmatnet_core::write_bytes_atomic(path, &bytes)?;
-    crate::report::make_readable(path);
+    crate::files::make_readable(path);
     Ok(())
 }
 

@@ -85,7 +85,7 @@ pub struct CheckpointState {
     pub learning_rate: Option<f64>,
     /// Where earlier resumes of this run changed the learning rate.
     #[serde(default)]
-    pub learning_rate_changes: Vec<crate::trainer::LearningRateChange>,
+    pub learning_rate_changes: Vec<LearningRateChange>,
     /// The net being trained.
     pub phase: Phase,
     /// The finished fitting net's counters, once it is done.
@@ -114,7 +114,7 @@ impl CheckpointDir {
     #[must_use]
     pub fn for_model(model_path: &Path) -> Self {
         Self {
-            dir: crate::dataset_loader::sibling(model_path, "checkpoint"),
+            dir: crate::files::sibling(model_path, "checkpoint"),
         }
     }
 
@@ -259,4 +259,18 @@ impl CheckpointDir {
             message,
         }
     }
+}
+/// A resume that went on with another learning rate than its checkpoint was written with
+/// (after a divergence, [`Error::Diverged`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LearningRateChange {
+    /// The net that was training (`fitting` or `local`; `fitting` at its last epoch when
+    /// the change came at the hand-over to the local net).
+    pub net: String,
+    /// The epochs of that net done at the old rate.
+    pub epoch: usize,
+    /// The rate the checkpoint was written with.
+    pub from: f64,
+    /// The rate training went on with.
+    pub to: f64,
 }

@@ -3,7 +3,7 @@
 //!
 //! Samples are preloaded into flat `f32` buffers once, so an epoch only slices memory.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::str::FromStr;
 
 use garmatnet_core::{
@@ -15,7 +15,6 @@ use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::split::{Split, SplitConfig};
 
 /// How far (metres) a stored per-vertex body point may be from the rebuilt template's posed
 /// anchor before the dataset is judged to belong to another template or body.
@@ -189,14 +188,6 @@ impl TrainingDataset {
     #[must_use]
     pub fn records(&self) -> &[SampleRecord] {
         self.reader.samples()
-    }
-
-    /// The split `config` makes of this dataset's finished samples ([`Split::new`]).
-    ///
-    /// # Errors
-    /// As [`Split::new`].
-    pub fn split(&self, config: &SplitConfig) -> Result<Split> {
-        Split::new(self.spec(), self.records(), self.dataset_hash(), config)
     }
 
     /// Every finished sample's key.
@@ -397,14 +388,6 @@ pub(crate) fn create_locked_dir(dir: &Path, what: &str) -> Result<garmatnet_core
         dir.join(".lock"),
         &format!("{what} {}", dir.display()),
     )?)
-}
-
-/// `PathBuf` of a file next to `model` named `{model stem}.{suffix}`.
-pub(crate) fn sibling(model: &Path, suffix: &str) -> PathBuf {
-    let stem = model
-        .file_stem()
-        .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
-    model.with_file_name(format!("{stem}.{suffix}"))
 }
 
 #[cfg(test)]

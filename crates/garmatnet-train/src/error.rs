@@ -2,6 +2,11 @@
 
 use std::path::PathBuf;
 
+/// A training loss above this counts as divergence even while finite: targets are normalised
+/// to unit variance, so a working net's loss is of order 1 and an exploding one passes 1e6
+/// long before it overflows.
+pub const DIVERGENCE_LOSS: f64 = 1e6;
+
 /// Everything that can go wrong while training or evaluating.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -136,10 +141,7 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 /// Why a loss counts as diverged, for [`Error::Diverged`]'s message.
 fn divergence_cause(loss: f64) -> String {
     if loss.is_finite() {
-        format!(
-            "past {:e}: exploding",
-            crate::training_loop::DIVERGENCE_LOSS
-        )
+        format!("past {:e}: exploding", DIVERGENCE_LOSS)
     } else {
         "not finite".into()
     }

@@ -515,8 +515,8 @@ fn dir_size(dir: &Path) -> u64 {
 mod tests {
     use super::*;
     use crate::baseline::{BaselineConfig, train_baseline};
+    use crate::files::split_path;
     use crate::test_util::{synthetic_dataset, training_lock};
-    use crate::trainer::split_path;
     use crate::trainer::tests::tiny_config;
     use crate::trainer::{RunOptions, TrainConfig, train};
     use garmatnet_model::MaterialRange;
@@ -931,7 +931,7 @@ mod tests {
         synthetic_dataset(&data, 6, 20);
         let model = dir.path().join("m.safetensors");
         train(&data, &model, &tiny_config(1), &RunOptions::default()).unwrap();
-        std::fs::remove_file(crate::trainer::split_path(&model)).unwrap();
+        std::fs::remove_file(crate::files::split_path(&model)).unwrap();
         let inputs = EvalInputs {
             held_out: Vec::new(),
             data_dir: data,

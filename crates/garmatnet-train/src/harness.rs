@@ -26,9 +26,9 @@ use serde::{Deserialize, Serialize};
 use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
+use crate::files::split_path;
 use crate::prediction_errors::{load_with_same_test, predict_baseline};
 use crate::split::Split;
-use crate::trainer::split_path;
 
 pub use crate::bench_report::{BenchReport, BenchRow, markdown};
 use crate::bench_report::{mark_pareto, revision_note, write_report};

@@ -37,6 +37,7 @@ pub mod error;
 pub mod evaluation;
 mod fabric_reference;
 mod figures;
+mod files;
 pub mod harness;
 mod pca;
 pub mod physics;
@@ -58,12 +59,16 @@ pub use baseline::{
     BaselineMaterial, BaselineMaterialEntry, train_baseline,
 };
 pub use calibration_eval::{CalibrationEval, CalibrationRow, evaluate_calibration};
-pub use checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
+pub use checkpoint::{
+    CHECKPOINT_VERSION, CheckpointDir, CheckpointState, LearningRateChange, NetProgress, Phase,
+};
 pub use dataset_loader::{
     BODY_POINT_TOLERANCE, LoadedSamples, SampleKey, SampleTruth, TrainingDataset,
 };
+pub use error::DIVERGENCE_LOSS;
 pub use error::{Error, Result};
 pub use evaluation::{EvalConfig, EvalInputs, evaluate};
+pub use files::split_path;
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use physics::{
     BodyField, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
@@ -85,7 +90,5 @@ pub use showcase::{
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};
-pub use trainer::{
-    LearningRateChange, NetSummary, RunOptions, TrainConfig, TrainSummary, split_path, train,
-};
-pub use training_loop::{COSINE_FINAL_FRACTION, DIVERGENCE_LOSS, LearningRateSchedule, STD_FLOOR};
+pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, train};
+pub use training_loop::{COSINE_FINAL_FRACTION, LearningRateSchedule, STD_FLOOR};

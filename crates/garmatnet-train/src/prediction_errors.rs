@@ -9,9 +9,9 @@ use garmatnet_model::{GarMatNetModel, OutputNormalizer};
 
 use crate::dataset_loader::{SampleKey, SampleTruth, TrainingDataset};
 use crate::error::{Error, Result};
+use crate::files::split_path;
 use crate::report::{ErrorStats, PartErrors, spread_mm};
 use crate::split::Split;
-use crate::trainer::split_path;
 
 /// Per-vertex errors (metres) of one prediction.
 #[derive(Clone)]

@@ -8,6 +8,7 @@ use garmatnet_model::OutsideComponent;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::files::make_readable;
 
 /// Mean per-vertex Euclidean errors of one part of the pipeline (millimetres).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -559,18 +560,6 @@ fn error_row(s: &mut String, name: &str, e: &ErrorStats) {
         "| {name} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
         e.samples, e.fitting_mm, e.local_mm, e.whole_mm, e.whole_p95_mm, e.whole_max_mm
     );
-}
-
-/// Gives a finished output file ordinary permissions (0644 on Unix): the atomic writers
-/// create their temporary files 0600, which would hide reports and splits from other users.
-pub(crate) fn make_readable(path: &Path) {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o644));
-    }
-    #[cfg(not(unix))]
-    let _ = path;
 }
 
 /// Mean, max and 95th percentile of per-vertex errors (metres in, millimetres out).

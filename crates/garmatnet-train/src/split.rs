@@ -387,7 +387,7 @@ impl Split {
         let bytes = serde_json::to_vec_pretty(self)
             .map_err(|e| Error::InvalidConfig(format!("cannot serialise the split: {e}")))?;
         garmatnet_core::write_bytes_atomic(path, &bytes)?;
-        crate::report::make_readable(path);
+        crate::files::make_readable(path);
         Ok(())
     }
 
@@ -446,7 +446,7 @@ impl Split {
         spec: &DatasetSpec,
         dataset_hash: &str,
     ) -> Result<Self> {
-        let path = crate::trainer::split_path(model_path);
+        let path = crate::files::split_path(model_path);
         let split = Self::read_for_dataset(&path, spec, dataset_hash)?;
         split.check_model(&path, model_path, provenance)?;
         Ok(split)
@@ -644,6 +644,16 @@ pub fn material_indices(spec: &DatasetSpec, names: &[String]) -> Result<Vec<usiz
             missing,
             available: spec.materials.iter().map(|m| m.name.clone()).collect(),
         })
+    }
+}
+
+impl crate::dataset_loader::TrainingDataset {
+    /// The split `config` makes of this dataset's finished samples ([`Split::new`]).
+    ///
+    /// # Errors
+    /// As [`Split::new`].
+    pub fn split(&self, config: &SplitConfig) -> Result<Split> {
+        Split::new(self.spec(), self.records(), self.dataset_hash(), config)
     }
 }
 

@@ -19,9 +19,11 @@ use garmatnet_model::{
 use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};
 
+use crate::checkpoint::LearningRateChange;
 use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase};
-use crate::dataset_loader::{Fnv1a, TrainingDataset, sibling};
+use crate::dataset_loader::{Fnv1a, TrainingDataset};
 use crate::error::{Error, Result};
+use crate::files::split_path;
 use crate::physics::{LocalPhysics, NormalizerTensors, PhysicsConfig};
 use crate::split::SplitConfig;
 use crate::training_loop::{
@@ -256,21 +258,6 @@ impl From<&NetProgress> for NetSummary {
     }
 }
 
-/// A resume that went on with another learning rate than its checkpoint was written with
-/// (after a divergence, [`Error::Diverged`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LearningRateChange {
-    /// The net that was training (`fitting` or `local`; `fitting` at its last epoch when
-    /// the change came at the hand-over to the local net).
-    pub net: String,
-    /// The epochs of that net done at the old rate.
-    pub epoch: usize,
-    /// The rate the checkpoint was written with.
-    pub from: f64,
-    /// The rate training went on with.
-    pub to: f64,
-}
-
 /// What [`train`] did.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainSummary {
@@ -373,12 +360,6 @@ pub(crate) fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-/// The split file of the model at `model_path`: `{stem}.split.json` next to it.
-#[must_use]
-pub fn split_path(model_path: &Path) -> PathBuf {
-    sibling(model_path, "split.json")
-}
-
 /// The files the trainer derives from a model path `{stem}.{ext}`, as `(suffix, what)`:
 /// each is written at `{stem}.{suffix}` next to the model.
 const MODEL_SIBLINGS: [(&str, &str); 3] = [
@@ -476,7 +457,7 @@ pub fn train(
     }
     // One run per model path: its split, checkpoints and model file are written below.
     let _lock = garmatnet_core::OutputLock::acquire(
-        crate::dataset_loader::sibling(model_path, "lock"),
+        crate::files::sibling(model_path, "lock"),
         &format!("model {}", model_path.display()),
     )?;
     let checkpoint = CheckpointDir::for_model(model_path);
@@ -1307,7 +1288,7 @@ pub(crate) mod tests {
         synthetic_dataset(&data, 6, 20);
         let path = dir.path().join("model.safetensors");
         let held = garmatnet_core::OutputLock::acquire(
-            crate::dataset_loader::sibling(&path, "lock"),
+            crate::files::sibling(&path, "lock"),
             "model (held by this test)",
         )
         .unwrap();

@@ -17,13 +17,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CheckpointDir, CheckpointState, NetProgress};
 use crate::dataset_loader::LoadedSamples;
+use crate::error::DIVERGENCE_LOSS;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 
-/// A training loss above this counts as divergence even while finite: targets are normalised
-/// to unit variance, so a working net's loss is of order 1 and an exploding one passes 1e6
-/// long before it overflows.
-pub const DIVERGENCE_LOSS: f64 = 1e6;
 pub(crate) fn initial_progress(seed: u64) -> NetProgress {
     NetProgress {
         epoch: 0,

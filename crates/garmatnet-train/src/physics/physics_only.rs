@@ -23,13 +23,15 @@ use garmatnet_sim::DrapeSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, Phase};
-use crate::dataset_loader::{Fnv1a, sibling};
+use crate::dataset_loader::Fnv1a;
+use crate::error::DIVERGENCE_LOSS;
 use crate::error::{Error, Result};
+use crate::files::sibling;
 use crate::physics::batch::{JointLimitsPoses, PhysicsBatch};
 use crate::physics::two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 use crate::progress::Progress;
 use crate::trainer::{NetSummary, RunOptions, TrainConfig, check_model_path};
-use crate::training_loop::{DIVERGENCE_LOSS, epoch_progress, initial_progress};
+use crate::training_loop::{epoch_progress, initial_progress};
 
 /// Both nets as one module, so one optimiser and one checkpoint file carry them.
 #[derive(Module, Debug)]
