@@ -182,9 +182,12 @@ mod tests {
         fitting_norm: NormalizerTensors,
         local_norm: NormalizerTensors,
         ad: Device,
+        /// Held while the toy lives: it seeds and draws from Burn's global random state.
+        _serial: std::sync::MutexGuard<'static, ()>,
     }
 
     fn toy(resolution: Resolution) -> Toy {
+        let serial = crate::test_util::training_lock();
         let body = CapsuleBody::smpl_neutral();
         let garment = Garment::tshirt(resolution, &body).unwrap();
         let smoother = LaplacianSmoother::new(&garment.rest, SmoothingSettings::default()).unwrap();
@@ -198,6 +201,7 @@ mod tests {
             garment,
             smoother,
             ad,
+            _serial: serial,
         }
     }
 
