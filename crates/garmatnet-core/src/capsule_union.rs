@@ -28,8 +28,10 @@
 //! go (a sleeve is a tube around the arm; outside the union it must go round the torso too,
 //! so it tore). Soft tissue flattens where two parts press together, and cloth lies in the
 //! seam between them. So each part is cut back to [`PINCH_HALF_WIDTH`] short of the surface
-//! midway between it and any other part, leaving a channel 1 cm wide through the overlap,
-//! open to the outside where the surfaces cross. Parts more than 1 cm apart are unchanged.
+//! midway between it and any other part, leaving a channel about 1 cm wide through the
+//! overlap, open to the outside where the surfaces cross. The channel's lips and the crease
+//! where two parts meet are rounded ([`PINCH_SMOOTHING`]), so the contact normal turns
+//! smoothly there. Parts more than 2 cm apart are unchanged.
 
 use crate::capsule::PreparedCapsule;
 use crate::error::{Error, Result};
@@ -153,39 +155,49 @@ fn fold(acc: &mut (Real, Vec3), d: Real, g: Vec3, k: Real) {
 }
 
 /// The half-width (metres) of the channel left where two parts press into each other: each
-/// part is cut back to `PINCH_HALF_WIDTH` short of the surface midway between them. Twice
-/// it, 1 cm, holds two layers of cloth with the solver's 3 mm contact margin on each wall.
-pub const PINCH_HALF_WIDTH: Real = 0.005;
+/// part is cut back to `PINCH_HALF_WIDTH` short of the surface midway between them. The
+/// rounding ([`PINCH_SMOOTHING`]) lowers the channel's middle by a quarter of its radius,
+/// to 5 mm from either wall: room for two layers of cloth with the solver's 3 mm contact
+/// margin on each.
+pub const PINCH_HALF_WIDTH: Real = 0.006;
 
-/// The hard union of the parts' own fields `by_part` (infinite for a part with nothing
-/// near), with a channel wherever two parts press into each other (see the module docs).
+/// The radius (metres) of the smooth maximum and minimum that round the channel's lips
+/// (where a part's cut meets its own surface) and the crease where two parts meet. With hard
+/// ones the contact normal jumped there: cloth lying across the lip or in the crease flipped
+/// between two normals from one Newton step to the next and never settled (a third of the
+/// first revision-3 samples stopped at the iteration cap, with the largest forces on cloth
+/// pressed between a forearm and the belly).
+pub const PINCH_SMOOTHING: Real = 0.004;
+
+/// The union of the parts' own fields `by_part` (infinite for a part with nothing near),
+/// with a channel wherever two parts press into each other (see the module docs).
 ///
 /// Each part `P` is cut by the bisector with every other part `Q`:
-/// `d'_P = max(d_P, max_Q ((d_P - d_Q) / 2 + PINCH_HALF_WIDTH))`, and the union is the
-/// minimum of the cut parts. The surface moves only where two parts come within
-/// `2 PINCH_HALF_WIDTH` of each other (outside `P`, `d_P ≥ 0` wins; on its surface the cut
-/// term is `g - d_Q / 2 ≤ 0` unless `Q` is that near). Inside `P`, a point nearer to `Q` than
-/// its depth plus `2 PINCH_HALF_WIDTH` reads its distance to the seam instead, a smaller
-/// depth. Each term is 1-Lipschitz, so the result is too.
+/// `d'_P = smax(d_P, (d_P - d_Q) / 2 + PINCH_HALF_WIDTH, ...)`, and the union is the smooth
+/// minimum of the cut parts, both of radius [`PINCH_SMOOTHING`] (`smax(a, b) =
+/// -smin(-a, -b)`). The surface moves only where two parts come within
+/// `2 (PINCH_HALF_WIDTH + PINCH_SMOOTHING)` of each other (outside `P` the cut term is
+/// `PINCH_SMOOTHING` or more below `d_P` unless `Q` is that near, and the smooth minimum
+/// equals the hard one wherever the parts' fields differ by more than its radius). Inside
+/// `P`, a point nearer to `Q` than its depth plus `2 PINCH_HALF_WIDTH` reads its distance to
+/// the seam instead, a smaller depth. Smooth maxima and minima of 1-Lipschitz terms are
+/// 1-Lipschitz, so the result is too, and its gradient is continuous across the lips.
 fn pinched_union(by_part: &[(Real, Vec3); MAX_LIMB_ROOTS + 1]) -> (Real, Vec3) {
     let mut best = (Real::INFINITY, Vec3::y());
     for (i, &(d, g)) in by_part.iter().enumerate() {
         if !d.is_finite() {
             continue;
         }
-        let mut cut = (d, g);
+        // The smooth maximum as the smooth minimum of the negated terms.
+        let mut cut = (-d, -g);
         for (j, &(e, h)) in by_part.iter().enumerate() {
             if j == i || !e.is_finite() {
                 continue;
             }
             let c = 0.5 * (d - e) + PINCH_HALF_WIDTH;
-            if c > cut.0 {
-                cut = (c, (g - h) * 0.5);
-            }
+            fold(&mut cut, -c, (h - g) * 0.5, PINCH_SMOOTHING);
         }
-        if cut.0 < best.0 {
-            best = cut;
-        }
+        fold(&mut best, -cut.0, -cut.1, PINCH_SMOOTHING);
     }
     best
 }
@@ -399,8 +411,9 @@ mod tests {
                 continue;
             }
             let d = body.distance(&p);
+            // Within 1 mm of the middle, less the rounding's quarter radius.
             assert!(
-                d >= PINCH_HALF_WIDTH - 1e-3,
+                d >= PINCH_HALF_WIDTH - 1e-3 - PINCH_SMOOTHING / 4.0 - 1e-9,
                 "{p:?}: {d} inside the channel"
             );
             assert!(fused.distance(&p) < 0.0, "{p:?} was inside the fused body");

@@ -40,7 +40,8 @@ pub use capsule_body::{
     CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
 };
 pub use capsule_union::{
-    DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, PINCH_HALF_WIDTH, SHOULDER_BLEND_REACH,
+    DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, PINCH_HALF_WIDTH, PINCH_SMOOTHING,
+    SHOULDER_BLEND_REACH,
 };
 pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, recompose};
 pub use error::{Error, Result};

@@ -37,8 +37,8 @@ pub const DATASET_FORMAT_VERSION: u32 = 1;
 ///   template with it; and the rest drape lands the shirt frictionless for
 ///   `LANDING_ITERATIONS` Newton iterations, then settles it with friction. T-pose drapes
 ///   are mirror-symmetric (0.0–0.1 mm on six fabrics at coarse resolution, from 60–84 mm).
-///   Where two body parts press into each other the body leaves the cloth a 1 cm channel
-///   (garmatnet-core's `PINCH_HALF_WIDTH`), and the fitted shirt's springs are at least 0.7
+///   Where two body parts press into each other the body leaves the cloth a channel about
+///   1 cm wide, its lips rounded (garmatnet-core's `PINCH_HALF_WIDTH`, `PINCH_SMOOTHING`), and the fitted shirt's springs are at least 0.7
 ///   of their pattern length (`FITTED_MIN_REST_FRACTION`), so hanging and raised arms do
 ///   not tear the cloth.
 pub const GROUND_TRUTH_REVISION: u32 = 3;
