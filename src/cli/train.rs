@@ -64,13 +64,18 @@ pub struct TrainOptions {
     pub rank: Option<usize>,
     /// Hybrid physics-informed training: the local net's loss adds λ times the drape
     /// energy per unit weight (metres) of the full prediction at (pose, fabric) pairs drawn
-    /// every step (fabrics uniform in normalised ω, poses within the joint limits).
+    /// every step (fabrics uniform in normalised ω, poses from `--physics-poses`).
     /// Default 0: off.
     #[arg(long, value_name = "λ")]
     pub physics_weight: Option<f64>,
     /// (pose, fabric) pairs per step of the physics term (default 8).
     #[arg(long)]
     pub physics_batch: Option<usize>,
+    /// The poses of the physics term and of `--physics-only`: `sampler[:SEED]` (default,
+    /// seed 1: the independent-pose sampler of `simulate --poses N`) or
+    /// `joint-limits[:AMPLITUDE]` (each joint uniform within that fraction of its range).
+    #[arg(long, value_name = "KIND[:VALUE]")]
+    pub physics_poses: Option<String>,
     /// The weight controller α ∈ [0, 1] (paper §3.6).
     #[arg(long)]
     pub alpha: Option<f64>,
@@ -177,6 +182,9 @@ impl TrainOptions {
         }
         if let Some(v) = self.physics_weight {
             c.physics.weight = v;
+        }
+        if let Some(v) = &self.physics_poses {
+            c.physics.poses = v.parse()?;
         }
         if let Some(v) = self.physics_batch {
             c.physics.batch_size = v;
@@ -296,6 +304,7 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
             })?;
         // Unset flags take physics-only training's defaults, not supervised training's.
         let (o, d) = (&args.options, PhysicsOnlyConfig::default().train);
+        let poses = config.physics.poses.clone();
         let physics = PhysicsOnlyConfig {
             train: TrainConfig {
                 batch_size: o.batch_size.unwrap_or(d.batch_size),
@@ -306,6 +315,7 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
             },
             resolution,
             steps_per_epoch: args.steps_per_epoch,
+            poses,
             ..PhysicsOnlyConfig::default()
         };
         let s = train_physics_only(&args.out, &physics, &options)?;

@@ -72,8 +72,8 @@ pub use files::split_path;
 pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use physics::{
     BodyField, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
-    PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PoseSource, TwoNetPhysicsLoss,
-    rest_offset_normalizers, train_physics_only, uniform_fabric,
+    PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PhysicsPoses, PoseSource, SampledPoses,
+    TwoNetPhysicsLoss, rest_offset_normalizers, train_physics_only, uniform_fabric,
 };
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;

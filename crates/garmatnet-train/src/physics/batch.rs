@@ -1,6 +1,7 @@
 //! The (pose, fabric) pairs of physics-informed training, drawn continuously: fabrics
-//! uniform in normalised ω, poses from any [`PoseSource`] (by default
-//! [`JointLimits::sample`]), and everything a batch's energy needs as tensors.
+//! uniform in normalised ω, poses from any [`PoseSource`] (by default the independent-pose
+//! sampler of `simulate --poses N`, [`PhysicsPoses::Sampler`]), and everything a batch's
+//! energy needs as tensors.
 
 use burn::prelude::*;
 use burn::tensor::DType;
@@ -8,26 +9,30 @@ use garmatnet_core::{
     CapsuleBody, DisplacementFrame, Garment, JointLimits, MATERIAL_DIM, Material, POSE_DIM, Pose,
     PosedBody, Real, SplitMix64,
 };
-use garmatnet_sim::{DrapeSettings, cloth_from_garment};
+use garmatnet_sim::{DrapeSettings, PoseSampler, PoseSamplerConfig, cloth_from_garment};
+use serde::{Deserialize, Serialize};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::physics::energy::ClothTensors;
 
-/// Where physics-informed training draws its poses: [`JointLimitsPoses`], a pose file's
-/// frames, or any closure `FnMut(&mut SplitMix64) -> Pose` (a dedicated pose sampler slots
-/// in here).
+/// Where physics-informed training draws its poses: [`SampledPoses`], [`JointLimitsPoses`],
+/// or any closure `FnMut(&mut SplitMix64) -> Result<Pose>`.
 pub trait PoseSource {
     /// The next pose, drawing any randomness from `rng`.
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose;
+    ///
+    /// # Errors
+    /// When the source cannot give a pose (e.g. the sampler found none within its attempts).
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose>;
 }
 
-impl<F: FnMut(&mut SplitMix64) -> Pose> PoseSource for F {
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose {
+impl<F: FnMut(&mut SplitMix64) -> Result<Pose>> PoseSource for F {
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
         self(rng)
     }
 }
 
-/// Poses drawn by [`JointLimits::sample`] at `amplitude` (0 to 1 of each joint's range).
+/// Poses drawn by [`JointLimits::sample`] at `amplitude` (0 to 1 of each joint's range):
+/// every joint independently, so arms pass through the torso and rarely hang at the sides.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointLimitsPoses {
     /// The joint limits.
@@ -46,8 +51,129 @@ impl Default for JointLimitsPoses {
 }
 
 impl PoseSource for JointLimitsPoses {
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Pose {
-        self.limits.sample(rng, self.amplitude)
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
+        Ok(self.limits.sample(rng, self.amplitude))
+    }
+}
+
+/// Poses of the independent-pose sampler that makes datasets (`simulate --poses N --seed
+/// S`, [`PoseSampler`]): arms from hanging at the sides to overhead, bent elbows, torso bends
+/// and twists, strides and weight shifts, with no body part passing through another. Each
+/// pose is the sampler's pose at an index drawn from the training stream, so a run draws
+/// fresh poses of the datasets' distribution for as long as it trains.
+#[derive(Debug, Clone)]
+pub struct SampledPoses {
+    sampler: PoseSampler,
+}
+
+impl SampledPoses {
+    /// The sampler with its default configuration and `seed`.
+    ///
+    /// # Errors
+    /// As [`PoseSampler::new`].
+    pub fn new(seed: u64) -> Result<Self> {
+        Ok(Self {
+            sampler: PoseSampler::new(PoseSamplerConfig {
+                seed,
+                ..PoseSamplerConfig::default()
+            })?,
+        })
+    }
+}
+
+impl PoseSource for SampledPoses {
+    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
+        Ok(self.sampler.pose(rng.next_u64())?)
+    }
+}
+
+/// Which poses physics-informed training draws (a run's configuration; [`Self::source`]
+/// makes the [`PoseSource`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum PhysicsPoses {
+    /// The datasets' independent-pose sampler ([`SampledPoses`]) with this seed.
+    Sampler {
+        /// The sampler's seed.
+        seed: u64,
+    },
+    /// Each joint uniformly within `amplitude` of its range ([`JointLimitsPoses`]).
+    JointLimits {
+        /// Fraction of each joint's range drawn from (0 to 1).
+        amplitude: f64,
+    },
+}
+
+impl Default for PhysicsPoses {
+    fn default() -> Self {
+        Self::Sampler { seed: 1 }
+    }
+}
+
+impl PhysicsPoses {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] for an amplitude outside `[0, 1]`.
+    pub fn validate(&self) -> Result<()> {
+        if let Self::JointLimits { amplitude } = self
+            && !(0.0..=1.0).contains(amplitude)
+        {
+            return Err(Error::InvalidConfig(format!(
+                "physics pose amplitude {amplitude} must lie in [0, 1] (a fraction of each \
+                 joint's range)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The source of these poses.
+    ///
+    /// # Errors
+    /// As [`Self::validate`] and [`SampledPoses::new`].
+    pub fn source(&self) -> Result<Box<dyn PoseSource>> {
+        self.validate()?;
+        Ok(match *self {
+            Self::Sampler { seed } => Box::new(SampledPoses::new(seed)?),
+            Self::JointLimits { amplitude } => Box::new(JointLimitsPoses {
+                limits: JointLimits::default(),
+                amplitude,
+            }),
+        })
+    }
+}
+
+impl std::str::FromStr for PhysicsPoses {
+    type Err = Error;
+
+    /// `sampler`, `sampler:SEED`, `joint-limits` or `joint-limits:AMPLITUDE` (defaults: seed
+    /// 1, amplitude 0.5).
+    fn from_str(s: &str) -> Result<Self> {
+        let (kind, value) = match s.trim().split_once(':') {
+            Some((k, v)) => (k.trim(), Some(v.trim())),
+            None => (s.trim(), None),
+        };
+        let bad = |what: &str| {
+            Error::InvalidConfig(format!(
+                "physics poses `{s}`: {what}; use sampler, sampler:SEED, joint-limits or \
+                 joint-limits:AMPLITUDE"
+            ))
+        };
+        let poses = match kind {
+            "sampler" => Self::Sampler {
+                seed: value.map_or(Ok(1), |v| {
+                    v.parse().map_err(|_| bad("the seed is not a whole number"))
+                })?,
+            },
+            "joint-limits" => Self::JointLimits {
+                amplitude: value.map_or(Ok(0.5), |v| {
+                    v.parse().map_err(|_| bad("the amplitude is not a number"))
+                })?,
+            },
+            _ => return Err(bad("unknown kind")),
+        };
+        poses.validate()?;
+        Ok(poses)
     }
 }
 
@@ -88,7 +214,7 @@ impl PhysicsBatch {
     /// ω, on `device` in f32.
     ///
     /// # Errors
-    /// As [`cloth_from_garment`] and [`ClothTensors::new`].
+    /// As [`PoseSource::next_pose`], [`cloth_from_garment`] and [`ClothTensors::new`].
     #[allow(clippy::too_many_arguments)]
     pub fn draw(
         garment: &Garment,
@@ -104,7 +230,7 @@ impl PhysicsBatch {
         let (mut models, mut posed) = (Vec::new(), Vec::new());
         let (mut anchors, mut frames) = (Vec::new(), Vec::new());
         for _ in 0..size {
-            let pose = poses.next_pose(rng);
+            let pose = poses.next_pose(rng)?;
             let material = uniform_fabric(rng)?;
             pose_rows.extend(pose.to_vec().into_iter().map(|v| v as f32));
             omega_rows.extend(material.to_normalized().into_iter().map(|v| v as f32));
@@ -200,5 +326,57 @@ impl PhysicsBatch {
     pub fn normalised_energy(&self, positions: Tensor<3>) -> Result<Tensor<1>> {
         let e = self.cloth.energy(positions, &self.bodies)?;
         Ok(e.total() / self.cloth.weight())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn physics_poses_parse_with_defaults_and_bad_ones_say_what_to_write() {
+        assert_eq!(
+            "sampler".parse::<PhysicsPoses>().unwrap(),
+            PhysicsPoses::default()
+        );
+        assert_eq!(
+            "sampler:7".parse::<PhysicsPoses>().unwrap(),
+            PhysicsPoses::Sampler { seed: 7 }
+        );
+        assert_eq!(
+            " joint-limits : 0.3 ".parse::<PhysicsPoses>().unwrap(),
+            PhysicsPoses::JointLimits { amplitude: 0.3 }
+        );
+        for bad in ["walk", "sampler:x", "joint-limits:2", "joint-limits:nan"] {
+            let e = bad.parse::<PhysicsPoses>().unwrap_err().to_string();
+            assert!(
+                e.contains("sampler:SEED") || e.contains("[0, 1]"),
+                "{bad}: {e}"
+            );
+        }
+    }
+
+    /// The sampler's poses are the datasets' (no part passes through another, arms hang
+    /// as low as the sampler's hanging band) and repeat for the same stream.
+    #[test]
+    fn sampled_poses_repeat_per_stream_and_differ_between_draws() {
+        let mut source = PhysicsPoses::default().source().unwrap();
+        let mut rng = SplitMix64::new(3);
+        let a: Vec<Pose> = (0..3)
+            .map(|_| source.next_pose(&mut rng).unwrap())
+            .collect();
+        let mut again = PhysicsPoses::default().source().unwrap();
+        let mut rng = SplitMix64::new(3);
+        let b: Vec<Pose> = (0..3).map(|_| again.next_pose(&mut rng).unwrap()).collect();
+        assert_eq!(a, b);
+        assert_ne!(a[0], a[1]);
+        let check = garmatnet_sim::SelfIntersection::new(
+            &CapsuleBody::smpl_neutral(),
+            garmatnet_sim::DEFAULT_ARM_GAP,
+        )
+        .unwrap();
+        for p in &a {
+            assert!(check.worst(p).is_none(), "{p:?}");
+        }
     }
 }

@@ -5,13 +5,13 @@
 //! so the decomposition keeps its meaning: the physics moves the detail only.
 
 use burn::prelude::*;
-use garmatnet_core::{CapsuleBody, DisplacementFrame, Garment, JointLimits, Real, SplitMix64};
+use garmatnet_core::{CapsuleBody, DisplacementFrame, Garment, Real, SplitMix64};
 use garmatnet_model::{GarMatNet, OutputNormalizer};
 use garmatnet_sim::DrapeSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::physics::batch::{JointLimitsPoses, PhysicsBatch};
+use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
 use crate::physics::two_net_loss::NormalizerTensors;
 use crate::training_loop::ExtraLoss;
 
@@ -25,8 +25,8 @@ pub struct PhysicsConfig {
     pub weight: f64,
     /// (pose, fabric) pairs drawn per step.
     pub batch_size: usize,
-    /// The fraction of each joint's range poses are drawn from ([`JointLimits::sample`]).
-    pub pose_amplitude: f64,
+    /// Which poses the pairs take (default: the datasets' independent-pose sampler).
+    pub poses: PhysicsPoses,
 }
 
 impl Default for PhysicsConfig {
@@ -34,7 +34,7 @@ impl Default for PhysicsConfig {
         Self {
             weight: 0.0,
             batch_size: 8,
-            pose_amplitude: 0.5,
+            poses: PhysicsPoses::default(),
         }
     }
 }
@@ -50,7 +50,7 @@ impl PhysicsConfig {
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] for a weight that is negative or not finite, no pair per
-    /// step, or a pose amplitude outside `[0, 1]`.
+    /// step; as [`PhysicsPoses::validate`].
     pub fn validate(&self) -> Result<()> {
         if !(self.weight.is_finite() && self.weight >= 0.0) {
             return Err(Error::InvalidConfig(format!(
@@ -63,13 +63,7 @@ impl PhysicsConfig {
                 "the physics term needs at least one (pose, fabric) pair per step".into(),
             ));
         }
-        if !(0.0..=1.0).contains(&self.pose_amplitude) {
-            return Err(Error::InvalidConfig(format!(
-                "physics pose amplitude {} must lie in [0, 1] (a fraction of each joint's \
-                 range)",
-                self.pose_amplitude
-            )));
-        }
+        self.poses.validate()?;
         Ok(())
     }
 }
@@ -93,16 +87,13 @@ pub(crate) struct LocalPhysics {
 impl LocalPhysics {
     /// `λ` times the mean normalised energy of the full prediction at a fresh batch.
     fn term(&self, local: &GarMatNet, rng: &mut SplitMix64) -> Result<Tensor<1>> {
-        let mut poses = JointLimitsPoses {
-            limits: JointLimits::default(),
-            amplitude: self.config.pose_amplitude,
-        };
+        let mut poses = self.config.poses.source()?;
         let batch = PhysicsBatch::draw(
             &self.garment,
             &self.body,
             &self.settings,
             self.frame,
-            &mut poses,
+            poses.as_mut(),
             rng,
             self.config.batch_size,
             &self.device,

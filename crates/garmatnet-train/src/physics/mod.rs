@@ -11,7 +11,9 @@ mod hybrid;
 mod physics_only;
 mod two_net_loss;
 
-pub use batch::{JointLimitsPoses, PhysicsBatch, PoseSource, uniform_fabric};
+pub use batch::{
+    JointLimitsPoses, PhysicsBatch, PhysicsPoses, PoseSource, SampledPoses, uniform_fabric,
+};
 pub use body_field::BodyField;
 pub use energy::{ClothTensors, EnergyTensors};
 pub(crate) use hybrid::LocalPhysics;

@@ -12,8 +12,8 @@ use std::time::Instant;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
 use garmatnet_core::{
-    CapsuleBody, Garment, JointLimits, LaplacianSmoother, MATERIAL_DIM, Resolution,
-    SmoothingSettings, SplitMix64,
+    CapsuleBody, Garment, LaplacianSmoother, MATERIAL_DIM, Resolution, SmoothingSettings,
+    SplitMix64,
 };
 use garmatnet_model::{
     GarMatNet, GarMatNetModel, MaterialRange, ModelMeta, TemplateInfo, TrainingProvenance,
@@ -27,7 +27,7 @@ use crate::dataset_loader::Fnv1a;
 use crate::error::DIVERGENCE_LOSS;
 use crate::error::{Error, Result};
 use crate::files::sibling;
-use crate::physics::batch::{JointLimitsPoses, PhysicsBatch};
+use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
 use crate::physics::two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 use crate::progress::Progress;
 use crate::trainer::{NetSummary, RunOptions, TrainConfig, check_model_path};
@@ -54,8 +54,8 @@ pub struct PhysicsOnlyConfig {
     pub steps_per_epoch: usize,
     /// Pairs of the fixed held-out batch that early stopping watches.
     pub held_out_pairs: usize,
-    /// The fraction of each joint's range poses are drawn from ([`JointLimits::sample`]).
-    pub pose_amplitude: f64,
+    /// Which poses the pairs take (default: the datasets' independent-pose sampler).
+    pub poses: PhysicsPoses,
     /// The fitting net's output scale (metres; [`rest_offset_normalizers`]).
     pub fitting_std: f64,
     /// The local net's output scale (metres).
@@ -75,7 +75,7 @@ impl Default for PhysicsOnlyConfig {
             resolution: Resolution::Default,
             steps_per_epoch: 50,
             held_out_pairs: 16,
-            pose_amplitude: 0.5,
+            poses: PhysicsPoses::default(),
             fitting_std: 0.02,
             local_std: 0.005,
         }
@@ -96,12 +96,7 @@ impl PhysicsOnlyConfig {
                     .into(),
             ));
         }
-        if !(0.0..=1.0).contains(&self.pose_amplitude) {
-            return Err(Error::InvalidConfig(format!(
-                "pose amplitude {} must lie in [0, 1]",
-                self.pose_amplitude
-            )));
-        }
+        self.poses.validate()?;
         for (what, v) in [("fitting", self.fitting_std), ("local", self.local_std)] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(Error::InvalidConfig(format!(
@@ -205,16 +200,13 @@ pub fn train_physics_only(
     }
 
     let draw = |rng: &mut SplitMix64, size: usize, on: &Device| {
-        let mut poses = JointLimitsPoses {
-            limits: JointLimits::default(),
-            amplitude: config.pose_amplitude,
-        };
+        let mut poses = config.poses.source()?;
         PhysicsBatch::draw(
             &garment,
             &body,
             &settings,
             t.displacement_frame,
-            &mut poses,
+            poses.as_mut(),
             rng,
             size,
             on,
