@@ -15,6 +15,7 @@ use crate::baseline::Baseline;
 use crate::dataset_loader::{SampleKey, TrainingDataset};
 use crate::error::Result;
 use crate::fabric_reference::{fabric_lookup, material_support};
+use crate::physical_quality::QualityAccumulator;
 use crate::prediction_errors::{
     VertexErrors, error_stats, load_model, load_with_same_test, predict_baseline,
     predict_garmatnet, vertex_errors,
@@ -102,6 +103,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     // GarMatNet on the whole test set, keeping per-vertex errors for the heat maps.
     let mut all_errors = Vec::with_capacity(split.test.len());
     let mut penetration = PenetrationAccumulator::default();
+    let mut quality = QualityAccumulator::new(data.garment(), spec)?;
     for keys in split.test.chunks(64) {
         let preds = predict_garmatnet(&model, &data, keys, &device)?;
         for (&key, pred) in keys.iter().zip(preds) {
@@ -120,6 +122,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
                 &posed,
                 config.push_out_epsilon,
             );
+            quality.add(key.material, &posed, &garment, &truth.simulated)?;
             all_errors.push((key, errors));
         }
     }
@@ -287,6 +290,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         per_sample,
         per_material,
         penetration: penetration.finish(config.push_out_epsilon),
+        physical_quality: quality.finish(),
         timing,
         sizes,
         frame_comparison,
@@ -591,6 +595,19 @@ mod tests {
             assert!(r.baseline.is_some());
         }
         assert!(report.garmatnet_all_test.samples > report.garmatnet.samples);
+        // Physical quality on every test sample, finite.
+        let q = report.physical_quality.unwrap();
+        assert_eq!(q.samples, report.garmatnet_all_test.samples);
+        for v in [
+            q.mean_max_stretch,
+            q.worst_stretch,
+            q.truth_mean_max_stretch,
+            q.mean_energy_above_truth_mm,
+            q.median_energy_above_truth_mm,
+        ] {
+            assert!(v.is_finite(), "{q:?}");
+        }
+        assert!(q.worst_stretch >= q.mean_max_stretch, "{q:?}");
         // The parts partition the test set (plus the comparison set) and the dev set is its own.
         let parts = report.garmatnet_by_part.clone().unwrap();
         let (fabric, pose, dev) = (

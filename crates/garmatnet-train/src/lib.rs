@@ -40,6 +40,7 @@ mod figures;
 mod files;
 pub mod harness;
 mod pca;
+pub mod physical_quality;
 pub mod physics;
 pub mod plots;
 mod prediction_errors;
@@ -79,7 +80,8 @@ pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{
     ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
-    NearestTraining, PartErrors, PenetrationStats, Report, SampleErrors, TestParts, Timing,
+    NearestTraining, PartErrors, PenetrationStats, PhysicalQuality, Report, SampleErrors,
+    TestParts, Timing,
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,

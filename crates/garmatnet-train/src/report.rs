@@ -70,6 +70,31 @@ pub struct PenetrationStats {
     pub whole_mm_after: f64,
 }
 
+/// How physical GarMatNet's predictions are after the push-out, measured with the solver's
+/// own energy and springs ([`crate::physical_quality`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PhysicalQuality {
+    /// Samples measured.
+    pub samples: usize,
+    /// The sound stretch `dataset check` flags past (strain, dimensionless).
+    pub sound_stretch: f64,
+    /// Mean over samples of the largest spring stretch (strain).
+    pub mean_max_stretch: f64,
+    /// The largest spring stretch of any sample (strain).
+    pub worst_stretch: f64,
+    /// Samples whose largest stretch is past the sound stretch.
+    pub past_sound_stretch: usize,
+    /// The ground truth's mean over samples of the largest spring stretch, for reference.
+    pub truth_mean_max_stretch: f64,
+    /// Mean over samples of the drape energy (springs, gravity, contact; no friction) above
+    /// the ground truth's, over the garment's weight (mm: the height the garment would have
+    /// to fall to release it). Friction holds the ground truth a little above its
+    /// frictionless minimum, so a prediction can come out slightly below it.
+    pub mean_energy_above_truth_mm: f64,
+    /// The median of the same.
+    pub median_energy_above_truth_mm: f64,
+}
+
 /// Inference speed of GarMatNet (both nets, garment assembly included).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Timing {
@@ -231,6 +256,10 @@ pub struct Report {
     pub per_material: Vec<MaterialErrors>,
     /// Push-out statistics over the whole test set.
     pub penetration: PenetrationStats,
+    /// The physical quality of the pushed-out predictions over the whole test set (absent
+    /// from reports written before it existed).
+    #[serde(default)]
+    pub physical_quality: Option<PhysicalQuality>,
     /// Inference speed.
     pub timing: Timing,
     /// Sizes on disk.
@@ -447,6 +476,29 @@ impl Report {
             "| Whole error (mm) | {:.2} | {:.2} |",
             self.garmatnet_all_test.whole_mm, p.whole_mm_after
         );
+        if let Some(q) = &self.physical_quality {
+            let _ = writeln!(
+                s,
+                "\n## Physical quality (after push-out, {} test samples)\n",
+                q.samples
+            );
+            let _ = writeln!(s, "| | Prediction | Ground truth |\n|---|---:|---:|");
+            let _ = writeln!(
+                s,
+                "| Mean largest spring stretch | {:.3} | {:.3} |",
+                q.mean_max_stretch, q.truth_mean_max_stretch
+            );
+            let _ = writeln!(
+                s,
+                "| Samples past the sound stretch ({}) | {} (worst {:.3}) | |",
+                q.sound_stretch, q.past_sound_stretch, q.worst_stretch
+            );
+            let _ = writeln!(
+                s,
+                "| Energy above the ground truth per unit weight (mm), mean / median | {:.2} / {:.2} | 0 |",
+                q.mean_energy_above_truth_mm, q.median_energy_above_truth_mm
+            );
+        }
         let t = &self.timing;
         let _ = writeln!(s, "\n## Speed and size\n");
         let _ = writeln!(s, "| | Value |\n|---|---:|");
