@@ -118,6 +118,35 @@ impl CheckpointDir {
         }
     }
 
+    /// The start of a training run on `model_path`: creates its directory, takes the
+    /// model's lock (one run per model path: its split, checkpoints and model file are
+    /// written under it), and returns the lock, the checkpoint directory and, when `resume`,
+    /// the saved state (without it, any old checkpoint is removed).
+    ///
+    /// # Errors
+    /// [`Error::Io`] if the directory cannot be made; the lock's error if another run holds
+    /// it; as [`Self::read_state`].
+    pub(crate) fn open_for_run(
+        model_path: &Path,
+        resume: bool,
+    ) -> Result<(garmatnet_core::OutputLock, Self, Option<CheckpointState>)> {
+        if let Some(dir) = model_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        let lock = garmatnet_core::OutputLock::acquire(
+            crate::files::sibling(model_path, "lock"),
+            &format!("model {}", model_path.display()),
+        )?;
+        let checkpoint = Self::for_model(model_path);
+        let saved = if resume {
+            checkpoint.read_state()?
+        } else {
+            checkpoint.remove();
+            None
+        };
+        Ok((lock, checkpoint, saved))
+    }
+
     /// The directory.
     #[must_use]
     pub fn path(&self) -> &Path {

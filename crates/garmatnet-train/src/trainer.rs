@@ -452,22 +452,8 @@ pub fn train(
     let fitting_norm = fit_normalizer(&train_set.d_fitting, 3 * n)?;
     let local_norm = fit_normalizer(&train_set.d_local, 3 * n)?;
 
-    if let Some(dir) = model_path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    // One run per model path: its split, checkpoints and model file are written below.
-    let _lock = garmatnet_core::OutputLock::acquire(
-        crate::files::sibling(model_path, "lock"),
-        &format!("model {}", model_path.display()),
-    )?;
-    let checkpoint = CheckpointDir::for_model(model_path);
+    let (_lock, checkpoint, saved) = CheckpointDir::open_for_run(model_path, options.resume)?;
     let fingerprint = config.resume_fingerprint(data.dataset_hash());
-    let saved = if options.resume {
-        checkpoint.read_state()?
-    } else {
-        checkpoint.remove();
-        None
-    };
     // Checkpoints written before the learning rate could change on resume carry the
     // fingerprint with it, and resume with that same rate.
     if let Some(s) = &saved

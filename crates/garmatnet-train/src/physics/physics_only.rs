@@ -26,7 +26,6 @@ use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, Phas
 use crate::dataset_loader::Fnv1a;
 use crate::error::DIVERGENCE_LOSS;
 use crate::error::{Error, Result};
-use crate::files::sibling;
 use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
 use crate::physics::two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 use crate::progress::Progress;
@@ -173,21 +172,8 @@ pub fn train_physics_only(
     let net_config = t.net_config(garment.vertex_count());
     net_config.validate()?;
 
-    if let Some(dir) = model_path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    }
-    let _lock = garmatnet_core::OutputLock::acquire(
-        sibling(model_path, "lock"),
-        &format!("model {}", model_path.display()),
-    )?;
-    let checkpoint = CheckpointDir::for_model(model_path);
+    let (_lock, checkpoint, saved) = CheckpointDir::open_for_run(model_path, options.resume)?;
     let fingerprint = config.fingerprint(garment.template_hash());
-    let saved = if options.resume {
-        checkpoint.read_state()?
-    } else {
-        checkpoint.remove();
-        None
-    };
     if let Some(s) = &saved
         && (s.fingerprint != fingerprint || s.phase != Phase::Physics)
     {
