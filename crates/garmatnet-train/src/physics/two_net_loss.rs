@@ -228,6 +228,34 @@ mod tests {
         f64::from(t.into_scalar::<f32>())
     }
 
+    /// The toy's physics loss of `f` and `l` at `batch`.
+    fn physics_loss(
+        t: &Toy,
+        f: &GarMatNet,
+        l: &GarMatNet,
+        batch: &PhysicsBatch,
+    ) -> TwoNetPhysicsLoss {
+        TwoNetPhysicsLoss::new(f, l, &t.fitting_norm, &t.local_norm, batch, &t.smoother).unwrap()
+    }
+
+    /// One Adam step of both nets down `loss`.
+    fn step_both(
+        (fitting, local): (GarMatNet, GarMatNet),
+        (opt_f, opt_l): &mut (ModuleOptimizer, ModuleOptimizer),
+        loss: Tensor<1>,
+        learning_rate: f64,
+    ) -> (GarMatNet, GarMatNet) {
+        let mut grads = loss.backward();
+        let (gf, gl) = (
+            GradientsParams::from_module(&mut grads, &fitting),
+            GradientsParams::from_module(&mut grads, &local),
+        );
+        (
+            opt_f.step(learning_rate, fitting, gf),
+            opt_l.step(learning_rate, local, gl),
+        )
+    }
+
     /// Positions and displacements are inverses, in the canonical frame too.
     #[test]
     fn positions_and_displacements_round_trip() {
@@ -254,42 +282,19 @@ mod tests {
         let mut rng = SplitMix64::new(2);
         let held_out = draw(&t, &mut rng, 4);
         let eval = |f: &GarMatNet, l: &GarMatNet| {
-            let loss = TwoNetPhysicsLoss::new(
-                f,
-                l,
-                &t.fitting_norm,
-                &t.local_norm,
-                &held_out,
-                &t.smoother,
-            )
-            .unwrap();
+            let loss = physics_loss(&t, f, l, &held_out);
             (scalar(loss.energy), scalar(loss.decomposition))
         };
         let (before, _) = eval(&fitting, &local);
-        let (mut opt_f, mut opt_l): (ModuleOptimizer, ModuleOptimizer) =
+        let mut opts: (ModuleOptimizer, ModuleOptimizer) =
             (AdamConfig::new().init(), AdamConfig::new().init());
         let started = Instant::now();
         let steps = 12;
         for _ in 0..steps {
             let batch = draw(&t, &mut rng, 4);
-            let loss = TwoNetPhysicsLoss::new(
-                &fitting,
-                &local,
-                &t.fitting_norm,
-                &t.local_norm,
-                &batch,
-                &t.smoother,
-            )
-            .unwrap();
-            let total = loss.total();
+            let total = physics_loss(&t, &fitting, &local, &batch).total();
             assert!(scalar(total.clone()).is_finite());
-            let mut grads = total.backward();
-            let (gf, gl) = (
-                GradientsParams::from_module(&mut grads, &fitting),
-                GradientsParams::from_module(&mut grads, &local),
-            );
-            fitting = opt_f.step(1e-3, fitting, gf);
-            local = opt_l.step(1e-3, local, gl);
+            (fitting, local) = step_both((fitting, local), &mut opts, total, 1e-3);
         }
         let per_step = started.elapsed().as_secs_f64() / steps as f64;
         let (after, decomposition) = eval(&fitting, &local);
@@ -326,30 +331,22 @@ mod tests {
             };
             mse(f, &fitting_target) + mse(l, &local_target)
         };
-        let physics = |f: &GarMatNet, l: &GarMatNet, batch: &PhysicsBatch| {
-            TwoNetPhysicsLoss::new(f, l, &t.fitting_norm, &t.local_norm, batch, &t.smoother)
-                .unwrap()
-        };
+        let physics =
+            |f: &GarMatNet, l: &GarMatNet, batch: &PhysicsBatch| physics_loss(&t, f, l, batch);
         let held_out = draw(&t, &mut rng, 4);
         let (sup_before, energy_before) = (
             scalar(supervised(&fitting, &local)),
             scalar(physics(&fitting, &local, &held_out).energy),
         );
         let weight = 0.1;
-        let (mut opt_f, mut opt_l): (ModuleOptimizer, ModuleOptimizer) =
+        let mut opts: (ModuleOptimizer, ModuleOptimizer) =
             (AdamConfig::new().init(), AdamConfig::new().init());
         for _ in 0..12 {
             let batch = draw(&t, &mut rng, 4);
             let loss = supervised(&fitting, &local)
                 + physics(&fitting, &local, &batch).total().mul_scalar(weight);
             assert!(scalar(loss.clone()).is_finite());
-            let mut grads = loss.backward();
-            let (gf, gl) = (
-                GradientsParams::from_module(&mut grads, &fitting),
-                GradientsParams::from_module(&mut grads, &local),
-            );
-            fitting = opt_f.step(1e-3, fitting, gf);
-            local = opt_l.step(1e-3, local, gl);
+            (fitting, local) = step_both((fitting, local), &mut opts, loss, 1e-3);
         }
         let (sup_after, energy_after) = (
             scalar(supervised(&fitting, &local)),
@@ -376,7 +373,7 @@ mod tests {
             let config = crate::TrainConfig::default().net_config(t.garment.vertex_count());
             let (mut fitting, mut local) = (config.init(&t.ad), config.init(&t.ad));
             let mut rng = SplitMix64::new(4);
-            let (mut opt_f, mut opt_l): (ModuleOptimizer, ModuleOptimizer) =
+            let mut opts: (ModuleOptimizer, ModuleOptimizer) =
                 (AdamConfig::new().init(), AdamConfig::new().init());
             let (mut draw_s, mut step_s) = (0.0, 0.0);
             let steps = 5;
@@ -385,22 +382,8 @@ mod tests {
                 let batch = draw(&t, &mut rng, 8);
                 draw_s += started.elapsed().as_secs_f64();
                 let started = Instant::now();
-                let loss = TwoNetPhysicsLoss::new(
-                    &fitting,
-                    &local,
-                    &t.fitting_norm,
-                    &t.local_norm,
-                    &batch,
-                    &t.smoother,
-                )
-                .unwrap();
-                let mut grads = loss.total().backward();
-                let (gf, gl) = (
-                    GradientsParams::from_module(&mut grads, &fitting),
-                    GradientsParams::from_module(&mut grads, &local),
-                );
-                fitting = opt_f.step(1e-4, fitting, gf);
-                local = opt_l.step(1e-4, local, gl);
+                let total = physics_loss(&t, &fitting, &local, &batch).total();
+                (fitting, local) = step_both((fitting, local), &mut opts, total, 1e-4);
                 step_s += started.elapsed().as_secs_f64();
             }
             println!(
