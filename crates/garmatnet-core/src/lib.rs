@@ -4,35 +4,35 @@
 //!
 //! Nothing here depends on Burn: the solver, the networks and the trainer all build on it.
 
-pub mod anchor;
-pub mod capsule;
-pub mod capsule_body;
-pub mod capsule_union;
-pub mod decompose;
+mod anchor;
+mod capsule;
+mod capsule_body;
+mod capsule_union;
+mod decompose;
 pub mod error;
 pub mod garment;
-pub mod garment_style;
-pub mod gltf;
-pub mod io;
+mod garment_style;
+mod gltf;
+mod io;
 mod joints;
-pub mod laplacian;
-pub mod material;
+mod laplacian;
+mod material;
 pub mod material_bounds;
-pub mod material_presets;
-pub mod math;
-pub mod mesh;
+mod material_presets;
+mod math;
+mod mesh;
 pub mod npy_guard;
-pub mod posable_body;
-pub mod pose;
-pub mod pose_file;
+mod posable_body;
+mod pose;
+mod pose_file;
 pub mod render;
-pub mod rng;
-pub mod sdf;
-pub mod skeleton;
-pub mod smpl_capsules;
-pub mod spring;
-pub mod surface_nets;
-pub mod tshirt_pattern;
+mod rng;
+mod sdf;
+mod skeleton;
+mod smpl_capsules;
+mod spring;
+mod surface_nets;
+mod tshirt_pattern;
 
 pub use anchor::{BodyAnchor, DisplacementFrame};
 pub use capsule::Capsule;

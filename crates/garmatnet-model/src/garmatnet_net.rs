@@ -693,7 +693,7 @@ mod tests {
 
     #[test]
     fn rotation_encoding_is_rodrigues_at_every_angle() {
-        use garmatnet_core::math::{Mat3, Rot3, Vec3};
+        use garmatnet_core::{Mat3, Rot3, Vec3};
         let dev = cpu();
         // Zero, tiny, moderate and near-π angles about assorted axes, one per joint.
         let mut rng = garmatnet_core::SplitMix64::new(9);

@@ -27,20 +27,20 @@
 //! # Ok::<(), garmatnet_model::Error>(())
 //! ```
 
-pub mod baseline_net;
-pub mod calibration;
-pub mod default_model;
-pub mod device;
-pub mod ensemble;
-pub mod error;
-pub mod garmatnet_net;
+mod baseline_net;
+mod calibration;
+mod default_model;
+mod device;
+mod ensemble;
+mod error;
+mod garmatnet_net;
 pub mod material_range;
-pub mod model_file;
+mod model_file;
 mod model_tensors;
-pub mod output_normalizer;
-pub mod predictor;
-pub mod push_out;
-pub mod scene;
+mod output_normalizer;
+mod predictor;
+mod push_out;
+mod scene;
 mod tensor_util;
 #[cfg(test)]
 mod test_util;

@@ -18,7 +18,7 @@ use crate::motion::{MIN_STEP_RAD, equal_steps, interpolation_steps};
 ///
 /// Every spring's constant is the material's stiffness for its [`SpringKind`], unscaled: the
 /// material's stiffnesses are membrane stiffnesses (N/m), equal to the spring constant on a
-/// square grid at any resolution (see [`garmatnet_core::material`]); shear and flexion are
+/// square grid at any resolution (see [`garmatnet_core::Material`]); shear and flexion are
 /// used as given. Masses are [`Garment::vertex_masses`] at the material's density.
 /// Out-of-bounds but [physical](Material::is_physical) materials are accepted, for stress
 /// tests.

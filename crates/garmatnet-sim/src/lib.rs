@@ -5,32 +5,32 @@
 //! pseudo-transient continuation, penalty contact and smooth Coulomb friction measured
 //! relative to the moving body.
 
-pub mod arm_clearance;
-pub mod arm_placement;
-pub mod canonical;
-pub mod cloth_model;
-pub mod contact;
+mod arm_clearance;
+mod arm_placement;
+mod canonical;
+mod cloth_model;
+mod contact;
 pub mod dataset;
-pub mod dataset_generator;
-pub mod dataset_reader;
-pub mod drape_energy;
-pub mod drape_settings;
-pub mod drape_solver;
-pub mod error;
-pub mod everyday_poses;
-pub mod garment_drape;
-pub mod grid_sheet;
+mod dataset_generator;
+mod dataset_reader;
+mod drape_energy;
+mod drape_settings;
+mod drape_solver;
+mod error;
+mod everyday_poses;
+mod garment_drape;
+mod grid_sheet;
 pub mod manifest;
-pub mod mirror_symmetry;
-pub mod motion;
+mod mirror_symmetry;
+mod motion;
 mod nested_dissection;
 mod newton_system;
-pub mod pose_sampler;
-pub mod reuse;
+mod pose_sampler;
+mod reuse;
 pub mod sample_arrays;
 mod sample_deriver;
-pub mod self_intersection;
-pub mod shard;
+mod self_intersection;
+mod shard;
 
 pub use arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 pub use arm_placement::{ArmPlacement, Side};

@@ -1,4 +1,4 @@
-//! How much a fabric calibration ([`garmatnet_model::calibration`]) helps, measured on a
+//! How much a fabric calibration ([`garmatnet_model::FabricCalibration`]) helps, measured on a
 //! dataset's own drapes: each fabric is calibrated with its drapes at a few reference poses,
 //! and the calibrated and uncalibrated predictions are held against its drapes at every
 //! other pose.

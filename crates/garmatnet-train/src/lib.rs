@@ -12,7 +12,7 @@
 //! - [`ClothTensors::energy`] ([`physics`]): the solver's drape energy in tensors, for
 //!   physics-informed training.
 //! - [`evaluate_calibration`]: how much calibrating each fabric with one of its drapes
-//!   ([`garmatnet_model::calibration`]) helps at its other poses.
+//!   ([`garmatnet_model::FabricCalibration`]) helps at its other poses.
 //!
 //! Every run is described by a serde configuration, so a CLI or a JSON file can set it:
 //!

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use garmatnet_core::gltf::{
+use garmatnet_core::{
     GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation,
 };
 use garmatnet_core::read_poses;

@@ -1,7 +1,7 @@
 //! The solver's drape energy in tensors, differentiable in the garment's positions, for a
 //! batch of (pose, fabric) samples: springs (structural, shear, flexion), gravity and the
 //! penalty contact against the posed capsule body (its own distance field, linearised where
-//! the garment is: [`BodyField`]), as `garmatnet_sim`'s [`garmatnet_sim::drape_energy`]
+//! the garment is: [`BodyField`]), as `garmatnet_sim`'s [`garmatnet_sim::drape_energy_and_gradient`]
 //! defines them.
 //!
 //! One source of truth: every constant comes from the solver's own [`ClothModel`] (spring
