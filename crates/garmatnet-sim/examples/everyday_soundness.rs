@@ -20,6 +20,9 @@ use garmatnet_sim::{
 };
 use rayon::prelude::*;
 
+#[path = "common/views.rs"]
+mod views;
+
 /// The comma-separated, lower-cased filter in environment variable `name` (empty: all).
 fn filter(name: &str) -> Vec<String> {
     std::env::var(name)
@@ -55,9 +58,7 @@ fn render_drape(
     preset: &str,
     x: &[garmatnet_core::Vec3],
 ) -> anyhow::Result<()> {
-    use garmatnet_core::render::{
-        BODY_COLOR, Camera, RenderItem, RenderSettings, Shading, heat_colors, render, save_png,
-    };
+    use garmatnet_core::render::{Shading, heat_colors};
     std::fs::create_dir_all(dir)?;
     let mut stretch = vec![0.0; x.len()];
     for s in &garment.springs {
@@ -69,24 +70,14 @@ fn render_drape(
     let colors = heat_colors(&stretch, SOUND_STRETCH);
     let mesh = garmatnet_core::TriMesh::new(x.to_vec(), garment.rest.faces.clone())?;
     let body_mesh = body.pose(&pose.pose).mesh();
-    let bounds = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
-    let margin = garmatnet_core::Vec3::new(0.15, 0.15, 0.15);
     let tag = format!("{}_{}", pose.name, preset.to_lowercase().replace(' ', "_"));
-    for (view, yaw) in [("front", 0.0), ("side", std::f64::consts::FRAC_PI_2)] {
-        let items = [
-            RenderItem {
-                mesh: &body_mesh,
-                shading: Shading::Uniform(BODY_COLOR),
-            },
-            RenderItem {
-                mesh: &mesh,
-                shading: Shading::PerVertex(&colors),
-            },
-        ];
-        let camera = Camera::framing(bounds.min - margin, bounds.max + margin, yaw);
-        let image = render(&items, &camera, &RenderSettings::default())?;
-        save_png(&dir.join(format!("{tag}_{view}.png")), &image)?;
-    }
+    views::save_front_and_side(
+        &dir.join(tag),
+        &body_mesh,
+        &mesh,
+        Shading::PerVertex(&colors),
+        0.15,
+    )?;
     Ok(())
 }
 

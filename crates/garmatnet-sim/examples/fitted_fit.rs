@@ -10,14 +10,15 @@
 
 use std::path::Path;
 
-use garmatnet_core::render::{
-    BODY_COLOR, Camera, GARMENT_COLOR, RenderItem, RenderSettings, Shading, render, save_png,
-};
+use garmatnet_core::render::{GARMENT_COLOR, Shading};
 use garmatnet_core::{
     CapsuleBody, Garment, GarmentStyle, Material, Opening, Pose, Real, Resolution, TriMesh, Vec3,
     write_obj,
 };
 use garmatnet_sim::{SequenceSettings, drape_sequence};
+
+#[path = "common/views.rs"]
+mod views;
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -116,29 +117,13 @@ fn main() -> anyhow::Result<()> {
             let body_mesh = body.pose(pose).mesh();
             write_obj(out.join(format!("{tag}.obj")), &mesh)?;
             write_obj(out.join(format!("body_{name}.obj")), &body_mesh)?;
-            let bounds = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
-            let (min, max) = (
-                bounds.min - Vec3::new(0.1, 0.1, 0.1),
-                bounds.max + Vec3::new(0.1, 0.1, 0.1),
-            );
-            for (view, yaw) in [("front", 0.0), ("side", std::f64::consts::FRAC_PI_2)] {
-                let items = [
-                    RenderItem {
-                        mesh: &body_mesh,
-                        shading: Shading::Uniform(BODY_COLOR),
-                    },
-                    RenderItem {
-                        mesh: &mesh,
-                        shading: Shading::Uniform(GARMENT_COLOR),
-                    },
-                ];
-                let image = render(
-                    &items,
-                    &Camera::framing(min, max, yaw),
-                    &RenderSettings::default(),
-                )?;
-                save_png(&out.join(format!("{tag}_{view}.png")), &image)?;
-            }
+            views::save_front_and_side(
+                &out.join(&tag),
+                &body_mesh,
+                &mesh,
+                Shading::Uniform(GARMENT_COLOR),
+                0.1,
+            )?;
         }
     }
     Ok(())

@@ -5,9 +5,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use garmatnet_core::{
-    GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation,
-};
 use garmatnet_core::read_poses;
 use garmatnet_core::render::{
     BODY_COLOR, Camera, Color, GARMENT_COLOR, RenderItem, RenderSettings, Shading, heat_colors,
@@ -17,6 +14,7 @@ use garmatnet_core::{
     CapsuleBody, Error as CoreError, Garment, MATERIAL_DIM, Material, Pose, Real, SkinnedBody,
     TriMesh, Vec3, write_obj, write_ply,
 };
+use garmatnet_core::{GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation};
 use garmatnet_sim::{
     MotionGenerator, SequenceSettings, drape_sequence, everyday_pose, everyday_poses,
 };
