@@ -83,15 +83,13 @@ impl QualityAccumulator {
         x: &[Vec3],
         truth: &[Vec3],
     ) -> Result<()> {
-        if self.models[material].is_none() {
-            self.models[material] = Some(cloth_from_garment(
+        let model = match &mut self.models[material] {
+            Some(model) => model,
+            slot => slot.insert(cloth_from_garment(
                 &self.garment,
                 &self.materials[material],
-            )?);
-        }
-        let model = self.models[material]
-            .as_ref()
-            .unwrap_or_else(|| unreachable!("made above"));
+            )?),
+        };
         let weight: f64 = model.masses().iter().sum::<f64>() * self.settings.gravity;
         let (predicted, _) = drape_energy_and_gradient(model, &self.settings, body, x)?;
         let (settled, _) = drape_energy_and_gradient(model, &self.settings, body, truth)?;

@@ -609,6 +609,7 @@ pub fn train(
         })?;
         Some(LocalPhysics {
             config: config.physics.clone(),
+            poses: config.physics.poses.source()?,
             fitting: fitting_net.clone().valid(),
             fitting_norm: fitting_norm.clone(),
             local_norm: NormalizerTensors::new(&local_norm, &ad),

@@ -16,17 +16,18 @@ use crate::error::{Error, Result};
 use crate::physics::energy::ClothTensors;
 
 /// Where physics-informed training draws its poses: [`SampledPoses`], [`JointLimitsPoses`],
-/// or any closure `FnMut(&mut SplitMix64) -> Result<Pose>`.
+/// or any closure `Fn(&mut SplitMix64) -> Result<Pose>`. A source draws all its
+/// randomness from the stream it is given, so one source serves every batch of a run.
 pub trait PoseSource {
     /// The next pose, drawing any randomness from `rng`.
     ///
     /// # Errors
     /// When the source cannot give a pose (e.g. the sampler found none within its attempts).
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose>;
+    fn next_pose(&self, rng: &mut SplitMix64) -> Result<Pose>;
 }
 
-impl<F: FnMut(&mut SplitMix64) -> Result<Pose>> PoseSource for F {
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
+impl<F: Fn(&mut SplitMix64) -> Result<Pose>> PoseSource for F {
+    fn next_pose(&self, rng: &mut SplitMix64) -> Result<Pose> {
         self(rng)
     }
 }
@@ -51,7 +52,7 @@ impl Default for JointLimitsPoses {
 }
 
 impl PoseSource for JointLimitsPoses {
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
+    fn next_pose(&self, rng: &mut SplitMix64) -> Result<Pose> {
         Ok(self.limits.sample(rng, self.amplitude))
     }
 }
@@ -82,7 +83,7 @@ impl SampledPoses {
 }
 
 impl PoseSource for SampledPoses {
-    fn next_pose(&mut self, rng: &mut SplitMix64) -> Result<Pose> {
+    fn next_pose(&self, rng: &mut SplitMix64) -> Result<Pose> {
         Ok(self.sampler.pose(rng.next_u64())?)
     }
 }
@@ -221,7 +222,7 @@ impl PhysicsBatch {
         body: &CapsuleBody,
         settings: &DrapeSettings,
         frame: DisplacementFrame,
-        poses: &mut dyn PoseSource,
+        poses: &dyn PoseSource,
         rng: &mut SplitMix64,
         size: usize,
         device: &Device,
@@ -360,12 +361,12 @@ mod tests {
     /// as low as the sampler's hanging band) and repeat for the same stream.
     #[test]
     fn sampled_poses_repeat_per_stream_and_differ_between_draws() {
-        let mut source = PhysicsPoses::default().source().unwrap();
+        let source = PhysicsPoses::default().source().unwrap();
         let mut rng = SplitMix64::new(3);
         let a: Vec<Pose> = (0..3)
             .map(|_| source.next_pose(&mut rng).unwrap())
             .collect();
-        let mut again = PhysicsPoses::default().source().unwrap();
+        let again = PhysicsPoses::default().source().unwrap();
         let mut rng = SplitMix64::new(3);
         let b: Vec<Pose> = (0..3).map(|_| again.next_pose(&mut rng).unwrap()).collect();
         assert_eq!(a, b);

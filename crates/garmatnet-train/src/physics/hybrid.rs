@@ -11,7 +11,7 @@ use garmatnet_sim::DrapeSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
+use crate::physics::batch::{PhysicsBatch, PhysicsPoses, PoseSource};
 use crate::physics::two_net_loss::NormalizerTensors;
 use crate::training_loop::ExtraLoss;
 
@@ -72,6 +72,8 @@ impl PhysicsConfig {
 /// prediction plus the local net's.
 pub(crate) struct LocalPhysics {
     pub(crate) config: PhysicsConfig,
+    /// The source of `config.poses`, made once for the run.
+    pub(crate) poses: Box<dyn PoseSource>,
     /// The finished fitting net, on the plain device.
     pub(crate) fitting: GarMatNet,
     pub(crate) fitting_norm: OutputNormalizer,
@@ -87,13 +89,12 @@ pub(crate) struct LocalPhysics {
 impl LocalPhysics {
     /// `λ` times the mean normalised energy of the full prediction at a fresh batch.
     fn term(&self, local: &GarMatNet, rng: &mut SplitMix64) -> Result<Tensor<1>> {
-        let mut poses = self.config.poses.source()?;
         let batch = PhysicsBatch::draw(
             &self.garment,
             &self.body,
             &self.settings,
             self.frame,
-            poses.as_mut(),
+            self.poses.as_ref(),
             rng,
             self.config.batch_size,
             &self.device,

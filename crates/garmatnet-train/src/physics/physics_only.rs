@@ -185,14 +185,14 @@ pub fn train_physics_only(
         });
     }
 
+    let poses = config.poses.source()?;
     let draw = |rng: &mut SplitMix64, size: usize, on: &Device| {
-        let mut poses = config.poses.source()?;
         PhysicsBatch::draw(
             &garment,
             &body,
             &settings,
             t.displacement_frame,
-            poses.as_mut(),
+            poses.as_ref(),
             rng,
             size,
             on,

@@ -211,7 +211,7 @@ mod tests {
             &t.body,
             &DrapeSettings::default(),
             DisplacementFrame::Canonical,
-            &mut JointLimitsPoses::default(),
+            &JointLimitsPoses::default(),
             rng,
             size,
             &t.ad,
