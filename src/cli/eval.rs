@@ -36,6 +36,11 @@ pub struct EvalArgs {
     /// canonical protocol with the model's template.
     #[arg(long, value_name = "NAME=DIR", value_parser = parse_held_out)]
     pub held_out: Vec<(String, PathBuf)>,
+    /// Run the solver from the prediction to convergence on this many samples of each set
+    /// (spread evenly) and report the Newton iterations it took beside the ground truth's
+    /// (seconds a sample); default 0: skip.
+    #[arg(long, default_value_t = 0)]
+    pub newton_samples: usize,
 }
 
 fn parse_held_out(value: &str) -> Result<(String, PathBuf), String> {
@@ -62,6 +67,7 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     let config = EvalConfig {
         device: args.device.clone(),
         figures: !args.no_figures,
+        newton_samples: args.newton_samples,
         ..EvalConfig::default()
     };
     let report = evaluate(&inputs, &config)?;
@@ -85,6 +91,9 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             b.whole_mm
         )?;
     }
+    if let Some(q) = &report.physical_quality {
+        physical_line("test set", q)?;
+    }
     for set in &report.held_out_sets {
         outln!(
             "GarMatNet ({}, {} samples): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
@@ -94,7 +103,36 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             set.all.local_mm,
             set.all.whole_mm
         )?;
+        if let Some(q) = &set.physical_quality {
+            physical_line(&set.name, q)?;
+        }
     }
     outln!("report written to {}", args.report.display())?;
+    Ok(())
+}
+
+/// One line of a set's physical quality (raw predictions, ground truth in brackets).
+fn physical_line(name: &str, q: &garmatnet::train::PhysicalQuality) -> Result<()> {
+    outln!(
+        "  physical ({name}, raw predictions [ground truth]): residual {:.3} [{:.3}], deepest {:.1} mm [{:.1}], \
+         {} of {} past the sound stretch, energy above the truth {:.1} mm median",
+        q.mean_residual,
+        q.truth_mean_residual,
+        q.worst_depth_mm,
+        q.truth_worst_depth_mm,
+        q.past_sound_stretch,
+        q.samples,
+        q.median_energy_above_truth_mm
+    )?;
+    if let Some(n) = &q.newton {
+        outln!(
+            "  Newton from the prediction ({} samples): {:.0} iterations [{:.0}], {} converged, {:.2} mm from the truth",
+            n.samples,
+            n.mean_iterations,
+            n.truth_mean_iterations,
+            n.converged,
+            n.mean_distance_to_truth_mm
+        )?;
+    }
     Ok(())
 }

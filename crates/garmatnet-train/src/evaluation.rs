@@ -40,6 +40,11 @@ pub struct EvalConfig {
     pub timing_batch: usize,
     /// Write the per-pose plots, heat maps and PLY files.
     pub figures: bool,
+    /// Samples of each set (the test set and every held-out set), spread evenly over it, on
+    /// which the solver is run from the prediction to convergence: the physical-quality
+    /// row of Newton iterations. 0 (default) skips it; each costs a solve (seconds).
+    #[serde(default)]
+    pub newton_samples: usize,
 }
 
 impl Default for EvalConfig {
@@ -50,6 +55,7 @@ impl Default for EvalConfig {
             timing_repeats: 20,
             timing_batch: 64,
             figures: true,
+            newton_samples: 0,
         }
     }
 }
@@ -104,25 +110,25 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let mut all_errors = Vec::with_capacity(split.test.len());
     let mut penetration = PenetrationAccumulator::default();
     let mut quality = QualityAccumulator::new(data.garment(), spec)?;
-    for keys in split.test.chunks(64) {
+    let polish_every = polish_stride(split.test.len(), config.newton_samples);
+    for (chunk, keys) in split.test.chunks(64).enumerate() {
         let preds = predict_garmatnet(&model, &data, keys, &device)?;
-        for (&key, pred) in keys.iter().zip(preds) {
+        for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = data.truth(key)?;
             let errors = vertex_errors(&truth, &pred);
             let posed = data.body().pose(&spec.poses[key.pose]);
-            let mut garment: Vec<Vec3> = truth
-                .body_points
-                .iter()
-                .zip(pred.d_fitting.iter().zip(&pred.d_local))
-                .map(|(b, (f, l))| b + (f + l))
-                .collect();
+            let mut garment = assemble(&truth.body_points, &pred);
+            quality.add(key.material, &posed, &garment, &truth.simulated)?;
             penetration.add(
                 &mut garment,
                 &truth.simulated,
                 &posed,
                 config.push_out_epsilon,
             );
-            quality.add(key.material, &posed, &garment, &truth.simulated)?;
+            if polish_every.is_some_and(|every| (chunk * 64 + i) % every == 0) {
+                let iterations = truth_iterations(&data, key);
+                quality.polish(key.material, &posed, &garment, &truth.simulated, iterations)?;
+            }
             all_errors.push((key, errors));
         }
     }
@@ -268,7 +274,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let held_out_sets = inputs
         .held_out
         .iter()
-        .map(|(name, dir)| held_out_set(name, dir, &model, &data, &split, &device))
+        .map(|(name, dir)| held_out_set(name, dir, &model, &data, &split, &device, config))
         .collect::<Result<Vec<_>>>()?;
     let timing = time_inference(&model, &data, &split.test, &device, config)?;
     let report = Report {
@@ -310,6 +316,7 @@ fn held_out_set(
     data: &TrainingDataset,
     split: &Split,
     device: &Device,
+    config: &EvalConfig,
 ) -> Result<HeldOutSet> {
     let set = TrainingDataset::open(dir, true)?;
     model.ensure_template(set.template_hash(), set.vertex_count())?;
@@ -325,10 +332,22 @@ fn held_out_set(
         })
         .collect();
     let mut errors = Vec::new();
-    for keys in set.keys().chunks(64) {
+    let mut quality = QualityAccumulator::new(set.garment(), set.spec())?;
+    let keys = set.keys();
+    let polish_every = polish_stride(keys.len(), config.newton_samples);
+    for (chunk, keys) in keys.chunks(64).enumerate() {
         let preds = predict_garmatnet(model, &set, keys, device)?;
-        for (&key, pred) in keys.iter().zip(preds) {
-            errors.push((seen[key.material], vertex_errors(&set.truth(key)?, &pred)));
+        for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
+            let truth = set.truth(key)?;
+            errors.push((seen[key.material], vertex_errors(&truth, &pred)));
+            let posed = set.body().pose(&set.spec().poses[key.pose]);
+            let mut garment = assemble(&truth.body_points, &pred);
+            quality.add(key.material, &posed, &garment, &truth.simulated)?;
+            if polish_every.is_some_and(|every| (chunk * 64 + i) % every == 0) {
+                let _ = push_out(&mut garment, &posed, config.push_out_epsilon);
+                let iterations = truth_iterations(&set, key);
+                quality.polish(key.material, &posed, &garment, &truth.simulated, iterations)?;
+            }
         }
     }
     let part = |want: bool| {
@@ -345,7 +364,30 @@ fn held_out_set(
         all: error_stats(errors.iter().map(|(_, e)| e)),
         training_fabrics: part(true),
         unseen_fabrics: part(false),
+        physical_quality: quality.finish(),
     })
+}
+
+/// The garment a prediction makes: the body points plus both displacements (no push-out).
+fn assemble(body_points: &[Vec3], pred: &crate::prediction_errors::Prediction) -> Vec<Vec3> {
+    body_points
+        .iter()
+        .zip(pred.d_fitting.iter().zip(&pred.d_local))
+        .map(|(b, (f, l))| b + (f + l))
+        .collect()
+}
+
+/// Every how many samples of `len` to polish so that at most `wanted` are; `None` for none.
+fn polish_stride(len: usize, wanted: usize) -> Option<usize> {
+    (wanted > 0 && len > 0).then(|| len.div_ceil(wanted))
+}
+
+/// The Newton iterations the ground truth's solver recorded for `key` (0 if unrecorded).
+fn truth_iterations(data: &TrainingDataset, key: SampleKey) -> u64 {
+    data.records()
+        .iter()
+        .find(|r| (r.material, r.pose) == (key.material, key.pose))
+        .map_or(0, |r| r.stats.iterations)
 }
 
 fn frame_name(frame: DisplacementFrame) -> &'static str {
@@ -556,10 +598,12 @@ mod tests {
         let config = EvalConfig {
             timing_repeats: 2,
             timing_batch: 4,
+            newton_samples: 2,
             ..EvalConfig::default()
         };
         let inputs = EvalInputs {
-            held_out: Vec::new(),
+            // The training set itself, read whole as a held-out set (the code path only).
+            held_out: vec![("whole".to_owned(), data.clone())],
             data_dir: data.clone(),
             model: world.clone(),
             baseline: Some(baseline_dir),
@@ -608,6 +652,23 @@ mod tests {
             assert!(v.is_finite(), "{q:?}");
         }
         assert!(q.worst_stretch >= q.mean_max_stretch, "{q:?}");
+        assert!(q.mean_residual.is_finite() && q.truth_mean_residual.is_finite());
+        assert!(
+            q.worst_depth_mm >= q.mean_depth_mm && q.mean_depth_mm >= 0.0,
+            "{q:?}"
+        );
+        let n = q.newton.unwrap();
+        assert_eq!(n.samples, 2, "{n:?}");
+        assert!(
+            n.mean_iterations >= 1.0 && n.truth_mean_iterations >= 1.0,
+            "{n:?}"
+        );
+        assert!(n.mean_distance_to_truth_mm.is_finite(), "{n:?}");
+        // The held-out set: every sample of the dataset, with its own physical quality.
+        let whole = &report.held_out_sets[0];
+        let wq = whole.physical_quality.unwrap();
+        assert_eq!(wq.samples, whole.all.samples);
+        assert_eq!(wq.newton.unwrap().samples, 2);
         // The parts partition the test set (plus the comparison set) and the dev set is its own.
         let parts = report.garmatnet_by_part.clone().unwrap();
         let (fabric, pose, dev) = (

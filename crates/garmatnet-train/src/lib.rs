@@ -80,8 +80,8 @@ pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::Progress;
 pub use report::{
     ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
-    NearestTraining, PartErrors, PenetrationStats, PhysicalQuality, Report, SampleErrors,
-    TestParts, Timing,
+    NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats, PhysicalQuality, Report,
+    SampleErrors, TestParts, Timing,
 };
 pub use showcase::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,
