@@ -114,10 +114,10 @@ pub fn run(args: &EvalArgs) -> Result<()> {
 /// One line of a set's physical quality (raw predictions, ground truth in brackets).
 fn physical_line(name: &str, q: &garmatnet::train::PhysicalQuality) -> Result<()> {
     outln!(
-        "  physical ({name}, raw predictions [ground truth]): residual {:.3} [{:.3}], deepest {:.1} mm [{:.1}], \
+        "  physical ({name}, raw predictions [ground truth]): median residual {:.1} [{:.1}], deepest {:.1} mm [{:.1}], \
          {} of {} past the sound stretch, energy above the truth {:.1} mm median",
-        q.mean_residual,
-        q.truth_mean_residual,
+        q.median_residual,
+        q.truth_median_residual,
         q.worst_depth_mm,
         q.truth_worst_depth_mm,
         q.past_sound_stretch,

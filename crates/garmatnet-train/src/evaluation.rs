@@ -652,7 +652,7 @@ mod tests {
             assert!(v.is_finite(), "{q:?}");
         }
         assert!(q.worst_stretch >= q.mean_max_stretch, "{q:?}");
-        assert!(q.mean_residual.is_finite() && q.truth_mean_residual.is_finite());
+        assert!(q.median_residual.is_finite() && q.truth_median_residual.is_finite());
         assert!(
             q.worst_depth_mm >= q.mean_depth_mm && q.mean_depth_mm >= 0.0,
             "{q:?}"

@@ -202,8 +202,11 @@ impl QualityAccumulator {
         }
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         let worst = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let mut sorted = self.above_mm.clone();
-        sorted.sort_by(f64::total_cmp);
+        let median = |v: &[f64]| {
+            let mut sorted = v.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            sorted[sorted.len() / 2]
+        };
         let newton = (!self.polished.is_empty()).then(|| {
             let k = self.polished.len() as f64;
             NewtonFromPrediction {
@@ -222,9 +225,9 @@ impl QualityAccumulator {
             past_sound_stretch: self.stretch.iter().filter(|&&s| s > SOUND_STRETCH).count(),
             truth_mean_max_stretch: mean(&self.truth_stretch),
             mean_energy_above_truth_mm: mean(&self.above_mm),
-            median_energy_above_truth_mm: sorted[n / 2],
-            mean_residual: mean(&self.residual),
-            truth_mean_residual: mean(&self.truth_residual),
+            median_energy_above_truth_mm: median(&self.above_mm),
+            median_residual: median(&self.residual),
+            truth_median_residual: median(&self.truth_residual),
             mean_depth_mm: mean(&self.depth_mm),
             worst_depth_mm: worst(&self.depth_mm),
             truth_worst_depth_mm: worst(&self.truth_depth_mm),
