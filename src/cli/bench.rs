@@ -93,10 +93,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         out_dir: args.out.clone(),
     };
     let report = run_bench(&inputs, &config)?;
-    crate::cli::write_stdout(format_args!(
-        "{}",
-        garmatnet::train::harness::markdown(&report)
-    ))?;
+    crate::cli::write_stdout(format_args!("{}", report.to_markdown()))?;
     outln!(
         "wrote {0}/bench.json, {0}/bench.md and {0}/pareto.png",
         args.out.display()

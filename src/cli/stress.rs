@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use clap::Args;
 use garmatnet::model::{Predictor, default_model_path, select_device};
-use garmatnet::train::stress::{FAR_FROM_BODY, stress_predictor};
+use garmatnet::train::{FAR_FROM_BODY, stress_predictor};
 
 /// Predict many random valid (pose, material) pairs and check every output.
 #[derive(Debug, Args)]

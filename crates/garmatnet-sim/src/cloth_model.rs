@@ -133,6 +133,29 @@ impl ClothModel {
         &self.masses
     }
 
+    /// The largest strain `|x_a - x_b| / L - 1` over the springs of positive rest length at
+    /// positions `x` (metres): what [`crate::DrapeStats::max_strain`] and `dataset check`
+    /// record. Negative when every spring is compressed.
+    ///
+    /// # Errors
+    /// [`CoreError::WrongLength`] unless `x` has one position per vertex.
+    pub fn max_strain(&self, x: &[Vec3]) -> Result<Real> {
+        if x.len() != self.vertex_count() {
+            return Err(CoreError::WrongLength {
+                what: "cloth positions".into(),
+                expected: format!("{} (one per vertex)", self.vertex_count()),
+                got: x.len(),
+            }
+            .into());
+        }
+        Ok(self
+            .springs
+            .iter()
+            .filter(|s| s.rest_length > 0.0)
+            .map(|s| ((x[s.a] - x[s.b]).norm() - s.rest_length) / s.rest_length)
+            .fold(Real::NEG_INFINITY, Real::max))
+    }
+
     /// Total mass (kg).
     #[must_use]
     pub fn total_mass(&self) -> Real {

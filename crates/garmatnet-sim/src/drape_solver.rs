@@ -444,7 +444,7 @@ impl DrapeSolver {
             max_residual,
             max_penetration,
             max_depth_before_projection,
-            max_strain: self.max_strain(positions),
+            max_strain: self.model.max_strain(positions)?,
             contacts,
             contact_force,
             refactorizations: iterations,
@@ -453,15 +453,6 @@ impl DrapeSolver {
             wall_time_ms: start.elapsed().as_secs_f64() * 1e3,
             converged,
         })
-    }
-
-    fn max_strain(&self, x: &[Vec3]) -> Real {
-        self.model
-            .springs()
-            .iter()
-            .filter(|s| s.rest_length > 0.0)
-            .map(|s| ((x[s.a] - x[s.b]).norm() - s.rest_length) / s.rest_length)
-            .fold(Real::NEG_INFINITY, Real::max)
     }
 }
 

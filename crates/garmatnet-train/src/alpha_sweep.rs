@@ -161,7 +161,7 @@ fn check_reusable(path: &Path, run: &TrainConfig) -> Result<()> {
 
 /// Table 3 as Markdown.
 #[must_use]
-pub fn markdown(rows: &[AlphaSweepRow]) -> String {
+pub(crate) fn markdown(rows: &[AlphaSweepRow]) -> String {
     let mut s = String::from(
         "# Mean per-vertex error under different weights α (Table 3)\n\n\
          | α | Generally-fitting (mm) | Locally-detailed (mm) | Whole (mm) | Whole, all test (mm) |\n\

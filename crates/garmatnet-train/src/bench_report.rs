@@ -132,9 +132,16 @@ pub(crate) fn revision_note(dataset_revision: Option<u32>, simulated: bool) -> O
     })
 }
 
+impl BenchReport {
+    /// The report as a markdown table, fastest first.
+    #[must_use]
+    pub fn to_markdown(&self) -> String {
+        markdown(self)
+    }
+}
+
 /// The report as a markdown table, fastest first.
-#[must_use]
-pub fn markdown(report: &BenchReport) -> String {
+fn markdown(report: &BenchReport) -> String {
     let mut md = String::from(
         "| method | device | batch | ms/frame | error (mm) | samples | size (MB) | Pareto |\n\
          |---|---|---:|---:|---:|---:|---:|:---:|\n",

@@ -30,7 +30,7 @@ use crate::files::split_path;
 use crate::prediction_errors::{load_with_same_test, predict_baseline};
 use crate::split::Split;
 
-pub use crate::bench_report::{BenchReport, BenchRow, markdown};
+pub use crate::bench_report::{BenchReport, BenchRow};
 use crate::bench_report::{mark_pareto, revision_note, write_report};
 
 /// What to measure.

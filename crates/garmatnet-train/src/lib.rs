@@ -9,7 +9,7 @@
 //! - [`evaluate`]: Table 2's errors, per-pose plots (Figs. 7–8), heat maps (Figs. 11–12),
 //!   push-out, timing and sizes, written as a [`Report`].
 //! - [`sweep_alpha`]: Table 3.
-//! - [`ClothTensors::energy`] ([`physics`]): the solver's drape energy in tensors, for
+//! - [`ClothTensors::energy`]: the solver's drape energy in tensors, for
 //!   physics-informed training.
 //! - [`evaluate_calibration`]: how much calibrating each fabric with one of its drapes
 //!   ([`garmatnet_model::FabricCalibration`]) helps at its other poses.
@@ -27,32 +27,32 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod alpha_sweep;
-pub mod baseline;
+mod alpha_sweep;
+mod baseline;
 mod bench_report;
-pub mod calibration_eval;
-pub mod checkpoint;
-pub mod dataset_loader;
-pub mod error;
-pub mod evaluation;
+mod calibration_eval;
+mod checkpoint;
+mod dataset_loader;
+mod error;
+mod evaluation;
 mod fabric_reference;
 mod figures;
 mod files;
-pub mod harness;
+mod harness;
 mod pca;
-pub mod physical_quality;
-pub mod physics;
-pub mod plots;
+mod physical_quality;
+mod physics;
+mod plots;
 mod prediction_errors;
-pub mod progress;
-pub mod report;
-pub mod showcase;
-pub mod split;
-pub mod stress;
+mod progress;
+mod report;
+mod showcase;
+mod split;
+mod stress;
 #[cfg(test)]
 mod test_util;
-pub mod trainer;
-pub mod training_loop;
+mod trainer;
+mod training_loop;
 
 pub use alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
 pub use baseline::{
@@ -77,18 +77,20 @@ pub use physics::{
     TwoNetPhysicsLoss, rest_offset_normalizers, train_physics_only, uniform_fabric,
 };
 pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
-pub use progress::Progress;
+pub use progress::{
+    DEFAULT_LOG_INTERVAL_SECS, LOG_INTERVAL_VAR, Progress, SharedLog, log_interval,
+};
 pub use report::{
-    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport, ModelSizes,
-    NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats, PhysicalQuality, Report,
-    SampleErrors, TestParts, Timing,
+    ErrorStats, FabricLookup, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport,
+    ModelSizes, NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats,
+    PhysicalQuality, Report, SampleErrors, TestParts, Timing,
 };
 pub use showcase::{
-    DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, OutputFormat,
-    SHIPPED_TRAINING_FRAMES, SIMULATED_COLOR, SimulatedDrape, StoredSequence, compare_path,
-    comparison_image, material_from_omega, numbered_path, resolve_frames, resolve_material,
-    resolve_pose, simulate_drape, simulate_sequence, slug, stored_sequence, training_motion_frames,
-    vertex_errors_mm,
+    DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, EVERYDAY_POSES,
+    OutputFormat, SHIPPED_TRAINING_FRAMES, SIMULATED_COLOR, SimulatedDrape, StoredSequence,
+    compare_path, comparison_image, material_from_omega, numbered_path, resolve_frames,
+    resolve_material, resolve_pose, simulate_drape, simulate_sequence, slug, stored_sequence,
+    training_motion_frames, vertex_errors_mm,
 };
 pub use split::{Split, SplitConfig, material_indices};
 pub use stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};

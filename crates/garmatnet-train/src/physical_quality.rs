@@ -17,18 +17,6 @@ use garmatnet_sim::{
 use crate::error::{Error, Result};
 use crate::report::{NewtonFromPrediction, PhysicalQuality};
 
-/// The largest strain `|x_a - x_b| / L - 1` over `model`'s springs (as the solver's
-/// `DrapeStats::max_strain` and `dataset check` measure it).
-#[must_use]
-pub fn max_stretch(model: &ClothModel, x: &[Vec3]) -> f64 {
-    model
-        .springs()
-        .iter()
-        .filter(|s| s.rest_length > 0.0)
-        .map(|s| ((x[s.a] - x[s.b]).norm() - s.rest_length) / s.rest_length)
-        .fold(f64::NEG_INFINITY, f64::max)
-}
-
 /// The solver's stopping measure: RMS over vertices of `|f_i| / (m_i g)`, for net forces
 /// `f = -gradient` of the drape energy (friction, which is not part of it, left out).
 fn force_residual(gradient: &[Vec3], masses: &[f64], gravity: f64) -> f64 {
@@ -139,7 +127,7 @@ impl QualityAccumulator {
         let (settled, truth_gradient) = drape_energy_and_gradient(model, &settings, body, truth)?;
         let residual = force_residual(&gradient, model.masses(), settings.gravity);
         let truth_residual = force_residual(&truth_gradient, model.masses(), settings.gravity);
-        let (stretch, truth_stretch) = (max_stretch(model, x), max_stretch(model, truth));
+        let (stretch, truth_stretch) = (model.max_strain(x)?, model.max_strain(truth)?);
         self.above_mm
             .push(1e3 * (predicted.total() - settled.total()) / weight);
         self.stretch.push(stretch);

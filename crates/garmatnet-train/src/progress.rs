@@ -20,7 +20,7 @@
 //!
 //! ```
 //! use std::time::Duration;
-//! use garmatnet_train::progress::{Progress, SharedLog};
+//! use garmatnet_train::{Progress, SharedLog};
 //!
 //! let log = SharedLog::default();
 //! let progress = Progress::to_log(log.clone(), Duration::ZERO, 10, "samples");

@@ -70,8 +70,8 @@ pub struct PenetrationStats {
     pub whole_mm_after: f64,
 }
 
-/// How physical GarMatNet's predictions are after the push-out, measured with the solver's
-/// own energy and springs ([`crate::physical_quality`]).
+/// How physical GarMatNet's raw predictions are (before the push-out), measured with the solver's
+/// own energy and springs.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct PhysicalQuality {
     /// Samples measured.

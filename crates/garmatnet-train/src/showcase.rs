@@ -235,7 +235,7 @@ pub fn resolve_material(
 /// kept, everything else `_`.
 ///
 /// ```
-/// assert_eq!(garmatnet_train::showcase::slug("Sherpa Fleece 160"), "sherpa_fleece_160");
+/// assert_eq!(garmatnet_train::slug("Sherpa Fleece 160"), "sherpa_fleece_160");
 /// ```
 #[must_use]
 pub fn slug(name: &str) -> String {
@@ -255,7 +255,7 @@ pub fn slug(name: &str) -> String {
 /// [`Material::to_normalized`]).
 ///
 /// ```
-/// let m = garmatnet_train::showcase::material_from_omega("0.5, 0.5, 0.5, 0.5, 0.5, 0.5")?;
+/// let m = garmatnet_train::material_from_omega("0.5, 0.5, 0.5, 0.5, 0.5, 0.5")?;
 /// assert!((m.to_normalized()[0] - 0.5).abs() < 1e-12);
 /// # Ok::<(), garmatnet_train::Error>(())
 /// ```

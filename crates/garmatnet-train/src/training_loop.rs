@@ -35,7 +35,7 @@ pub(crate) fn initial_progress(seed: u64) -> NetProgress {
 }
 
 /// Epoch progress on stderr (epoch, losses, best, ETA): a bar on a terminal, a line a
-/// minute in a log ([`crate::progress`]), nothing when `quiet`.
+/// minute in a log ([`crate::Progress`]), nothing when `quiet`.
 pub(crate) fn epoch_progress(max_epochs: usize, quiet: bool) -> Progress {
     Progress::stderr(
         max_epochs as u64,
