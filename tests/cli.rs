@@ -200,7 +200,7 @@ fn assert_fails_cleanly(args: &[&str], hint: &str, out: &std::path::Path) -> any
 
 /// An untrained model for the coarse T-shirt (the CLI cannot tell it from a trained one).
 fn coarse_model(dir: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
-    use garmatnet::model::TemplateInfo;
+    use garmatnet::core::TemplateInfo;
     let device = garmatnet::select_device("cpu")?;
     let body = garmatnet::CapsuleBody::smpl_neutral();
     let garment = garmatnet::Garment::tshirt(garmatnet::Resolution::Coarse, &body)?;

@@ -111,6 +111,31 @@ pub struct BoundaryLoop {
     pub vertices: Vec<u32>,
 }
 
+/// The garment template a dataset or model was made with: enough to rebuild it
+/// ([`Garment::for_template`]) and to refuse another. Dataset manifests and model files
+/// store it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TemplateInfo {
+    /// The template's resolution.
+    pub resolution: Resolution,
+    /// Vertices per garment (`n` of every garment array).
+    pub vertex_count: usize,
+    /// The template's content hash ([`Garment::template_hash`], 16 hex digits).
+    pub hash: String,
+}
+
+impl TemplateInfo {
+    /// The template description of `garment`.
+    #[must_use]
+    pub fn of(garment: &Garment) -> Self {
+        Self {
+            resolution: garment.resolution,
+            vertex_count: garment.vertex_count(),
+            hash: format!("{:016x}", garment.template_hash()),
+        }
+    }
+}
+
 /// A garment template: rest mesh, springs, body anchors and pattern coordinates.
 #[derive(Debug, Clone)]
 pub struct Garment {

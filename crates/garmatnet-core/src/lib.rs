@@ -47,6 +47,7 @@ pub use decompose::{Decomposition, decompose, field_from_frame, field_to_frame, 
 pub use error::{Error, Result};
 pub use garment::{
     BoundaryLoop, FITTED_MIN_REST_FRACTION, Garment, MIN_BODY_CLEARANCE, Opening, Resolution,
+    TemplateInfo,
 };
 pub use garment_style::GarmentStyle;
 pub use gltf::{GlbAnimatedMesh, GlbMesh, GlbSkinnedMesh, write_glb, write_glb_animation};

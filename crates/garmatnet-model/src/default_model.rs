@@ -76,7 +76,8 @@ impl Predictor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{GarMatNetConfig, TemplateInfo, select_device};
+    use crate::{GarMatNetConfig, select_device};
+    use garmatnet_core::TemplateInfo;
     use garmatnet_core::{Material, Pose, Resolution};
 
     #[test]

@@ -494,7 +494,7 @@ mod tests {
         let mut other_fabrics = small_model(2, Some(12), &dev);
         other_fabrics.meta.provenance.training_fabrics = vec![crate::TrainingFabric {
             name: "Linen".into(),
-            omega: [0.5; crate::MATERIAL_DIM],
+            omega: [0.5; garmatnet_core::MATERIAL_DIM],
         }];
         assert!(err(&[a, other_fabrics]).contains("training fabrics"));
     }

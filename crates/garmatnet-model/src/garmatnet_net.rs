@@ -13,8 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// The number of material coordinates ω (paper §3.1).
-pub const MATERIAL_DIM: usize = 6;
+pub(crate) use garmatnet_core::MATERIAL_DIM;
 
 /// The most weights a network may have (both nets' configurations are checked against it):
 /// 500 million, 2 GB of f32, some 75 times the shipped paper-resolution nets together. A

@@ -53,14 +53,9 @@ pub use calibration::{
 pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
 pub use device::select_device;
 pub use error::{Error, Result};
-pub use garmatnet_net::{
-    GarMatNet, GarMatNetConfig, MATERIAL_DIM, MAX_PARAMETERS, OutputHead, PoseEncoding,
-};
+pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MAX_PARAMETERS, OutputHead, PoseEncoding};
 pub use material_range::{FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric};
-pub use model_file::{
-    FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TemplateInfo, TrainingProvenance,
-    template_hash_hex,
-};
+pub use model_file::{FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TrainingProvenance};
 pub use output_normalizer::{MIN_STD, OutputNormalizer};
 pub use predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions};
 pub use push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};

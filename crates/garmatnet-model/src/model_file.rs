@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use burn::prelude::*;
-use garmatnet_core::DisplacementFrame;
+use garmatnet_core::{DisplacementFrame, TemplateInfo};
 use safetensors::{SafeTensors, tensor::TensorView};
 use serde::{Deserialize, Serialize};
 
@@ -37,17 +37,6 @@ pub const FORMAT_VERSION: u32 = 1;
 
 /// The `format` value in every model file's metadata.
 pub const FORMAT_NAME: &str = "garmatnet-model";
-
-/// The garment template a model was trained on.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TemplateInfo {
-    /// The template's content hash, as the garment builder reports it.
-    pub hash: String,
-    /// The template's resolution preset.
-    pub resolution: garmatnet_core::Resolution,
-    /// The template's vertex count n.
-    pub vertex_count: usize,
-}
 
 /// How a model was trained: free-form, for reproducibility. Every field is optional in files.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -188,18 +177,6 @@ fn with_optional_net_fields(mut document: serde_json::Value) -> serde_json::Valu
         }
     }
     document
-}
-
-impl TemplateInfo {
-    /// The template description of `garment` (hash in the hex form datasets use).
-    #[must_use]
-    pub fn of(garment: &garmatnet_core::Garment) -> Self {
-        Self {
-            hash: template_hash_hex(garment),
-            resolution: garment.resolution,
-            vertex_count: garment.vertex_count(),
-        }
-    }
 }
 
 impl GarMatNetModel {
@@ -507,12 +484,6 @@ fn stored_checksum(document: &str, tensors: &[Stored]) -> u64 {
             .iter()
             .map(|t| (&*t.name, t.dtype, &*t.shape, &*t.bytes)),
     )
-}
-
-/// The hex form of a garment's template hash, as model files and dataset manifests store it.
-#[must_use]
-pub fn template_hash_hex(garment: &garmatnet_core::Garment) -> String {
-    format!("{:016x}", garment.template_hash())
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use garmatnet_core::{
 use crate::error::{Error, Result};
 use crate::garmatnet_net::MATERIAL_DIM;
 use crate::material_range::{MaterialRange, TrainingFabric, nearest};
-use crate::model_file::{GarMatNetModel, template_hash_hex};
+use crate::model_file::GarMatNetModel;
 use crate::push_out::{PushOut, PushOutReport, push_out};
 use crate::tensor_util::{matrix, to_f32};
 use garmatnet_core::error::ensure_finite;
@@ -235,7 +235,7 @@ impl Predictor {
             model,
             garment.rest.faces.clone(),
             garment.anchors.clone(),
-            &template_hash_hex(garment),
+            &garmatnet_core::TemplateInfo::of(garment).hash,
             body.skeleton().clone(),
             device,
         )?;

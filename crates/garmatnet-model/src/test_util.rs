@@ -5,10 +5,11 @@ use burn::prelude::*;
 use garmatnet_core::{BodyAnchor, POSE_DIM, SplitMix64, Vec3};
 
 use crate::garmatnet_net::{GarMatNetConfig, MATERIAL_DIM};
-use crate::model_file::{GarMatNetModel, ModelMeta, TemplateInfo};
+use crate::model_file::{GarMatNetModel, ModelMeta};
 use crate::output_normalizer::OutputNormalizer;
 use crate::predictor::Predictor;
 use crate::tensor_util::matrix;
+use garmatnet_core::TemplateInfo;
 
 /// Tests run on the pure-Rust CPU backend, whatever features are compiled in.
 pub(crate) fn cpu() -> Device {

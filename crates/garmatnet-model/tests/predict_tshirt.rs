@@ -5,10 +5,10 @@
 use burn::prelude::Device;
 use garmatnet_core::{
     CapsuleBody, Garment, JointLimits, Material, Pose, Resolution, SignedDistance, SplitMix64,
-    presets,
+    TemplateInfo, presets,
 };
 use garmatnet_model::{
-    Detail, Error, GarMatNetConfig, GarMatNetModel, OutputNormalizer, Predictor, TemplateInfo,
+    Detail, Error, GarMatNetConfig, GarMatNetModel, OutputNormalizer, Predictor,
 };
 
 fn coarse() -> (Garment, CapsuleBody) {

@@ -463,8 +463,8 @@ fn written_in(raw: &serde_json::Value, canonical: &serde_json::Value) -> bool {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::manifest::{BodyInfo, MaterialEntry, SmoothingInfo, TemplateInfo};
-    use garmatnet_core::{JointLimits, SplitMix64};
+    use crate::manifest::{BodyInfo, MaterialEntry, SmoothingInfo};
+    use garmatnet_core::{JointLimits, Resolution, SplitMix64, TemplateInfo};
 
     pub(crate) const VERTICES: usize = 10;
 
@@ -474,7 +474,7 @@ pub(crate) mod tests {
         let mut rng = SplitMix64::new(9);
         DatasetSpec {
             template: TemplateInfo {
-                resolution: "tiny".into(),
+                resolution: Resolution::Coarse,
                 vertex_count: VERTICES,
                 hash: "abc123".into(),
             },

@@ -16,7 +16,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Resolution, SmoothingSettings, Vec3};
+use garmatnet_core::{
+    CapsuleBody, Garment, Material, Pose, Resolution, SmoothingSettings, TemplateInfo, Vec3,
+};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -27,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::garment_drape::{SequenceResume, SequenceSettings, drape_sequence};
 use crate::manifest::{
     BodyInfo, DatasetSpec, GROUND_TRUTH_REVISION, MaterialEntry, SampleStats, SmoothingInfo,
-    TemplateInfo, sample_stem,
+    sample_stem,
 };
 use crate::reuse::import_samples;
 use crate::sample_arrays::read_simulated;
@@ -128,11 +130,7 @@ pub struct GenerateReport {
 /// [`Error::Core`] if the T-shirt cannot be built or the settings cannot be serialised.
 pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<DatasetSpec> {
     Ok(DatasetSpec {
-        template: TemplateInfo {
-            resolution: config.resolution.name().to_owned(),
-            vertex_count: garment.vertex_count(),
-            hash: format!("{:016x}", garment.template_hash()),
-        },
+        template: TemplateInfo::of(garment),
         body: BodyInfo {
             name: BODY_NAME.to_owned(),
         },

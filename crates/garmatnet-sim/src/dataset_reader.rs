@@ -482,11 +482,7 @@ mod tests {
         // A real (coarse) T-shirt template, so the check knows its springs.
         let garment = Garment::tshirt(Resolution::Coarse, &CapsuleBody::smpl_neutral()).unwrap();
         let mut spec = tiny_spec();
-        spec.template = crate::manifest::TemplateInfo {
-            resolution: "coarse".into(),
-            vertex_count: garment.vertex_count(),
-            hash: format!("{:016x}", garment.template_hash()),
-        };
+        spec.template = garmatnet_core::TemplateInfo::of(&garment);
         let rest: Vec<[f32; 3]> = garment
             .rest
             .vertices

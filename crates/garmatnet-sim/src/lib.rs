@@ -56,8 +56,7 @@ pub use garment_drape::{
 pub use grid_sheet::{SheetStiffness, grid_sheet};
 pub use manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, GROUND_TRUTH_REVISION, Manifest, MaterialEntry,
-    SampleRecord, SampleStats, SmoothingInfo, TemplateInfo, manifest_path, revision_label,
-    sample_stem,
+    SampleRecord, SampleStats, SmoothingInfo, manifest_path, revision_label, sample_stem,
 };
 pub use mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};
 pub use motion::{

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use garmatnet_core::{Error, Pose, Result};
+use garmatnet_core::{Error, Pose, Result, TemplateInfo};
 use serde::{Deserialize, Serialize};
 
 use crate::canonical::DrapeProtocol;
@@ -42,17 +42,6 @@ pub const DATASET_FORMAT_VERSION: u32 = 1;
 ///   of their pattern length (`FITTED_MIN_REST_FRACTION`), so hanging and raised arms do
 ///   not tear the cloth.
 pub const GROUND_TRUTH_REVISION: u32 = 3;
-
-/// The T-shirt template every sample deforms.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TemplateInfo {
-    /// The template's resolution preset, as named by the garment generator.
-    pub resolution: String,
-    /// Vertices per garment (`n` of every `simulated`/`smoothed` array).
-    pub vertex_count: usize,
-    /// A content hash of the template mesh (hex); samples of different templates never mix.
-    pub hash: String,
-}
 
 /// The body the garments were draped on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

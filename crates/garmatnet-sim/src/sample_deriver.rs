@@ -75,7 +75,7 @@ impl SampleDeriver {
                 spec.body.name.clone(),
             ));
         }
-        let resolution: Resolution = spec.template.resolution.parse()?;
+        let resolution: Resolution = spec.template.resolution;
         let weights: LaplacianWeights =
             serde_json::from_value(serde_json::Value::String(spec.smoothing.weights.clone()))
                 .map_err(|_| {

@@ -4,13 +4,11 @@
 //! Samples are preloaded into flat `f32` buffers once, so an epoch only slices memory.
 
 use std::path::Path;
-use std::str::FromStr;
 
 use garmatnet_core::{
-    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, POSE_DIM, Resolution, Skeleton,
+    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, MATERIAL_DIM, POSE_DIM, Skeleton,
     SkinnedBody, Vec3, decompose, field_to_frame,
 };
-use garmatnet_model::MATERIAL_DIM;
 use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
@@ -137,12 +135,7 @@ impl TrainingDataset {
                 )));
             }
         }
-        let resolution = Resolution::from_str(&spec.template.resolution).map_err(|_| {
-            bad(format!(
-                "template resolution `{}` is not one of coarse, default, paper",
-                spec.template.resolution
-            ))
-        })?;
+        let resolution = spec.template.resolution;
         let body = CapsuleBody::smpl_neutral();
         let garment = match Garment::for_template(resolution, &spec.template.hash, &body) {
             Ok(garment) => garment,

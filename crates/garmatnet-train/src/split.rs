@@ -660,13 +660,13 @@ impl crate::dataset_loader::TrainingDataset {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use garmatnet_core::Pose;
-    use garmatnet_sim::{BodyInfo, MaterialEntry, SmoothingInfo, TemplateInfo};
+    use garmatnet_core::{Pose, Resolution, TemplateInfo};
+    use garmatnet_sim::{BodyInfo, MaterialEntry, SmoothingInfo};
 
     fn spec(materials: usize, poses: usize) -> DatasetSpec {
         DatasetSpec {
             template: TemplateInfo {
-                resolution: "coarse".into(),
+                resolution: Resolution::Coarse,
                 vertex_count: 3,
                 hash: "t".into(),
             },

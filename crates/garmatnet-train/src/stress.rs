@@ -111,10 +111,8 @@ pub fn stress_predictor(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use garmatnet_core::{CapsuleBody, Garment, Resolution};
-    use garmatnet_model::{
-        GarMatNetConfig, GarMatNetModel, OutputNormalizer, TemplateInfo, select_device,
-    };
+    use garmatnet_core::{CapsuleBody, Garment, Resolution, TemplateInfo};
+    use garmatnet_model::{GarMatNetConfig, GarMatNetModel, OutputNormalizer, select_device};
 
     /// An untrained coarse model whose outputs are scaled to `std_m` metres.
     fn predictor(std_m: Real) -> Predictor {

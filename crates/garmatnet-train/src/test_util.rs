@@ -5,11 +5,10 @@ use std::path::Path;
 
 use garmatnet_core::{
     CapsuleBody, Garment, JointLimits, LaplacianSmoother, Resolution, SkinnedBody,
-    SmoothingSettings, SplitMix64,
+    SmoothingSettings, SplitMix64, TemplateInfo,
 };
 use garmatnet_sim::{
     BodyInfo, DatasetSpec, DatasetWriter, MaterialEntry, SampleArrays, SampleStats, SmoothingInfo,
-    TemplateInfo,
 };
 
 /// Burn's random state (weight init, dropout) is global to the process, so tests that train,
@@ -51,11 +50,7 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
         })
         .collect();
     let spec = DatasetSpec {
-        template: TemplateInfo {
-            resolution: Resolution::Coarse.name().into(),
-            vertex_count: garment.vertex_count(),
-            hash: format!("{:016x}", garment.template_hash()),
-        },
+        template: TemplateInfo::of(&garment),
         body: BodyInfo {
             name: "capsule-smpl-neutral".into(),
         },

@@ -11,10 +11,10 @@
 use std::path::{Path, PathBuf};
 
 use burn::prelude::*;
-use garmatnet_core::DisplacementFrame;
+use garmatnet_core::{DisplacementFrame, TemplateInfo};
 use garmatnet_model::{
     GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, PoseEncoding,
-    TemplateInfo, TrainingProvenance, select_device,
+    TrainingProvenance, select_device,
 };
 use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};

@@ -11,8 +11,9 @@ use burn::module::Module;
 use burn::nn::loss::{MseLoss, Reduction};
 use burn::optim::{AdamConfig, AdamWConfig, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
+use garmatnet_core::MATERIAL_DIM;
 use garmatnet_core::{POSE_DIM, SplitMix64};
-use garmatnet_model::{BaselineNet, GarMatNet, MATERIAL_DIM, OutputNormalizer};
+use garmatnet_model::{BaselineNet, GarMatNet, OutputNormalizer};
 use serde::{Deserialize, Serialize};
 
 use crate::checkpoint::{CheckpointDir, CheckpointState, NetProgress};

@@ -13,11 +13,10 @@ use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::prelude::*;
 use garmatnet_core::{
     CapsuleBody, Garment, LaplacianSmoother, MATERIAL_DIM, Resolution, SmoothingSettings,
-    SplitMix64,
+    SplitMix64, TemplateInfo,
 };
 use garmatnet_model::{
-    GarMatNet, GarMatNetModel, MaterialRange, ModelMeta, TemplateInfo, TrainingProvenance,
-    select_device,
+    GarMatNet, GarMatNetModel, MaterialRange, ModelMeta, TrainingProvenance, select_device,
 };
 use garmatnet_sim::DrapeSettings;
 use serde::{Deserialize, Serialize};
