@@ -14,10 +14,11 @@
 use burn::prelude::Device;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use garmatnet::core::{
-    CapsuleBody, Garment, JointLimits, Material, Pose, Resolution, SplitMix64, presets,
+    CapsuleBody, Garment, JointLimits, Material, Pose, Resolution, SplitMix64, TemplateInfo,
+    presets,
 };
 use garmatnet::model::{
-    Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, PushOut, Scene, TemplateInfo,
+    Character, Detail, GarMatNetConfig, GarMatNetModel, Predictor, PushOut, Scene,
 };
 use garmatnet::sim::MotionGenerator;
 
