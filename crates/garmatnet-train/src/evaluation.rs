@@ -384,10 +384,10 @@ fn polish_stride(len: usize, wanted: usize) -> Option<usize> {
 
 /// The Newton iterations the ground truth's solver recorded for `key` (0 if unrecorded).
 fn truth_iterations(data: &TrainingDataset, key: SampleKey) -> u64 {
-    data.records()
-        .iter()
-        .find(|r| (r.material, r.pose) == (key.material, key.pose))
-        .map_or(0, |r| r.stats.iterations)
+    let records = data.records();
+    records
+        .binary_search_by_key(&(key.material, key.pose), |r| (r.material, r.pose))
+        .map_or(0, |i| records[i].stats.iterations)
 }
 
 fn frame_name(frame: DisplacementFrame) -> &'static str {

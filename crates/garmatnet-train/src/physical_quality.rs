@@ -154,19 +154,16 @@ impl QualityAccumulator {
         truth: &[Vec3],
         truth_iterations: u64,
     ) -> Result<()> {
-        let settings = self.settings.clone();
-        self.model(material)?;
-        let solver = match &mut self.solvers[material] {
+        let mut solver = match self.solvers[material].take() {
             Some(solver) => solver,
-            slot => {
-                let model = self.models[material]
-                    .as_ref()
-                    .unwrap_or_else(|| unreachable!("made just above"));
-                slot.insert(DrapeSolver::new(model, &settings)?)
+            None => {
+                let settings = self.settings.clone();
+                DrapeSolver::new(self.model(material)?, &settings)?
             }
         };
         let mut x = start.to_vec();
         let stats = solver.drape(&mut x, body, &[])?;
+        self.solvers[material] = Some(solver);
         let distance_mm = 1e3
             * x.iter()
                 .zip(truth)
@@ -227,22 +224,28 @@ impl QualityAccumulator {
 mod tests {
     use super::*;
     use garmatnet_core::{CapsuleBody, Pose, Resolution};
-    use garmatnet_sim::{CanonicalDraper, canonical_settings};
+    use garmatnet_sim::{CanonicalDraper, DrapeStats, canonical_settings};
+
+    /// `preset` draped at the zero pose on the coarse shirt by the canonical protocol: the
+    /// drape, its solver stats, the posed body and an accumulator for that fabric alone.
+    fn zero_pose_drape(preset: &str) -> (Vec<Vec3>, DrapeStats, PosedBody, QualityAccumulator) {
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
+        let material = Material::preset(preset).unwrap();
+        let settings = canonical_settings();
+        let draper = CanonicalDraper::new(&garment, &body, &material, &settings).unwrap();
+        let pose = Pose::zero();
+        let (truth, stats) = draper.drape(&pose).unwrap();
+        let q = QualityAccumulator::from_parts(&garment, vec![material], settings.drape);
+        (truth, stats, body.pose(&pose), q)
+    }
 
     /// The ground truth against itself is 0 above and its own stretch; the same drape
     /// stretched by 10 % about its centre reads a stretch near 0.1 more and a positive
     /// energy above it; a drape pulled into the body reads a contact energy above it.
     #[test]
     fn a_stretched_or_sunken_drape_reads_above_the_ground_truth() {
-        let body = CapsuleBody::smpl_neutral();
-        let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
-        let material = Material::preset("Cotton Jersey").unwrap();
-        let settings = canonical_settings();
-        let draper = CanonicalDraper::new(&garment, &body, &material, &settings).unwrap();
-        let pose = Pose::zero();
-        let (truth, stats) = draper.drape(&pose).unwrap();
-        let posed = body.pose(&pose);
-        let mut q = QualityAccumulator::from_parts(&garment, vec![material], settings.drape);
+        let (truth, stats, posed, mut q) = zero_pose_drape("Cotton Jersey");
         q.add(0, &posed, &truth, &truth).unwrap();
         let centre = truth.iter().sum::<Vec3>() / truth.len() as f64;
         let stretched: Vec<Vec3> = truth.iter().map(|v| centre + (v - centre) * 1.1).collect();
@@ -284,15 +287,7 @@ mod tests {
     /// stretched copy takes more iterations and comes back near it.
     #[test]
     fn polishing_counts_the_newton_iterations_from_a_start() {
-        let body = CapsuleBody::smpl_neutral();
-        let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
-        let material = Material::preset("Denim Heavy").unwrap();
-        let settings = canonical_settings();
-        let draper = CanonicalDraper::new(&garment, &body, &material, &settings).unwrap();
-        let pose = Pose::zero();
-        let (truth, stats) = draper.drape(&pose).unwrap();
-        let posed = body.pose(&pose);
-        let mut q = QualityAccumulator::from_parts(&garment, vec![material], settings.drape);
+        let (truth, stats, posed, mut q) = zero_pose_drape("Denim Heavy");
         q.add(0, &posed, &truth, &truth).unwrap();
         q.polish(0, &posed, &truth, &truth, stats.iterations as u64)
             .unwrap();
