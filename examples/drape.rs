@@ -15,12 +15,12 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Parser;
 use garmatnet::core::render::{RenderSettings, save_png, side_by_side};
+use garmatnet::core::{
+    DrapeSequence, DrapeView, comparison_image, resolve_material, slug, vertex_errors_mm,
+};
 use garmatnet::model::{Detail, FAR_FROM_TRAINING, Predictor, default_model_path, select_device};
 use garmatnet::sim::SequenceSettings;
-use garmatnet::train::{
-    DrapeSequence, DrapeView, comparison_image, resolve_frames, resolve_material, resolve_pose,
-    simulate_drape, slug, vertex_errors_mm,
-};
+use garmatnet::sim::{resolve_frames, resolve_pose, simulate_drape};
 use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// The fabrics shown when none is named: light and fluid, a heavy twill, a stiff interlining.

@@ -10,11 +10,11 @@
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
+use garmatnet::core::vertex_errors_mm;
 use garmatnet::core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet::sim::{
     MotionGenerator, MotionPace, SequenceResume, SequenceSettings, drape_poses, drape_sequence,
 };
-use garmatnet::train::vertex_errors_mm;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]

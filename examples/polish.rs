@@ -12,9 +12,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
+use garmatnet::core::vertex_errors_mm;
 use garmatnet::core::{CapsuleBody, Garment, Material, Resolution};
 use garmatnet::sim::{DrapeSettings, FrameStepper, MotionGenerator, SequenceSettings, drape_poses};
-use garmatnet::train::vertex_errors_mm;
 use garmatnet::{Detail, Predictor};
 
 /// Command-line arguments.

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use garmatnet::core::{CapsuleBody, JointLimits, write_obj};
 
-use garmatnet::train::resolve_pose;
+use garmatnet::sim::resolve_pose;
 
 /// Write the capsule body (SMPL's neutral proportions) as an OBJ, in the rest T-pose or posed.
 #[derive(Debug, Args)]

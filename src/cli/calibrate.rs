@@ -6,15 +6,14 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use garmatnet::core::resolve_material;
 use garmatnet::model::{
     CalibrationSettings, DEFAULT_RIDGE, Predictor, ReferenceDrape, default_model_path,
     select_device,
 };
 use garmatnet::sim::SequenceSettings;
-use garmatnet::train::{
-    TrainingDataset, evaluate_calibration, resolve_frames, resolve_material, simulate_sequence,
-    training_motion_frames,
-};
+use garmatnet::sim::{resolve_frames, simulate_sequence, training_motion_frames};
+use garmatnet::train::{TrainingDataset, evaluate_calibration};
 use garmatnet::{CapsuleBody, Garment, Pose};
 
 /// Calibrate a fabric for a model with a few simulated drapes, and write the calibration.

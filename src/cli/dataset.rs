@@ -75,11 +75,11 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             out,
         } => {
             for path in out {
-                garmatnet::train::OutputFormat::from_path(path)?;
+                garmatnet::core::OutputFormat::from_path(path)?;
             }
             let data = garmatnet::train::TrainingDataset::open(dir, true)?;
             let stored = garmatnet::train::stored_sequence(&data, material, frames)?;
-            let view = garmatnet::train::DrapeSequence {
+            let view = garmatnet::core::DrapeSequence {
                 frames: &stored.frames,
                 body: data.body(),
                 poses: &stored.poses,

@@ -5,16 +5,17 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use garmatnet::core::{
+    DrapeSequence, DrapeView, OutputFormat, compare_path, comparison_image, resolve_material,
+    vertex_errors_mm,
+};
 use garmatnet::core::{JointLimits, read_pose_frame_rate};
 use garmatnet::model::{
     Detail, FAR_FROM_TRAINING, FabricCalibration, Predictor, PushOut, SEQUENCE_BATCH,
     default_model_path, select_device,
 };
 use garmatnet::sim::SequenceSettings;
-use garmatnet::train::{
-    DrapeSequence, DrapeView, OutputFormat, compare_path, comparison_image, resolve_frames,
-    resolve_material, resolve_pose, simulate_drape, simulate_sequence, vertex_errors_mm,
-};
+use garmatnet::sim::{resolve_frames, resolve_pose, simulate_drape, simulate_sequence};
 use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// Predict the T-shirt for one pose and fabric and write it.

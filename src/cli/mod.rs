@@ -100,7 +100,7 @@ pub fn read_settings_file<T: serde::de::DeserializeOwned>(
 /// # Errors
 /// The first write that fails, naming its path.
 pub fn write_sequence_outputs(
-    view: &garmatnet::train::DrapeSequence<'_>,
+    view: &garmatnet::core::DrapeSequence<'_>,
     outs: &[std::path::PathBuf],
     what: &str,
 ) -> anyhow::Result<()> {

@@ -84,6 +84,26 @@ pub enum Error {
         /// What was found.
         got: String,
     },
+    /// A number was expected and something else was written. Write a decimal number there.
+    #[error("{what} is `{text}`, not a number{hint}")]
+    NotANumber {
+        /// Where the number belongs, e.g. `"ω component 3"`.
+        what: String,
+        /// What was written instead.
+        text: String,
+        /// Extra advice (may be empty), starting with `"; "`.
+        hint: String,
+    },
+    /// An output file's extension names no format garmatnet writes. End the file name in
+    /// `.obj`, `.glb`, `.ply` or `.png`.
+    #[error(
+        "cannot tell the output format of `{}`: end the file name in .obj, .glb, .ply or .png",
+        path.display()
+    )]
+    UnknownOutputFormat {
+        /// The path whose extension is missing or unknown.
+        path: PathBuf,
+    },
     /// An argument is invalid in a way the other variants do not cover; the message says how.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),

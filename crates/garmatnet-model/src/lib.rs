@@ -27,36 +27,33 @@
 //! # Ok::<(), garmatnet_model::Error>(())
 //! ```
 
-mod baseline_net;
-mod calibration;
-mod default_model;
 mod device;
-mod ensemble;
 mod error;
-mod garmatnet_net;
-pub mod material_range;
-mod model_file;
-mod model_tensors;
-mod output_normalizer;
-mod predictor;
-mod push_out;
-mod scene;
-mod tensor_util;
+mod file;
+mod net;
+mod predict;
 #[cfg(test)]
 mod test_util;
 
-pub use baseline_net::{BaselineNet, BaselineNetConfig};
-pub use calibration::{
+pub use device::select_device;
+pub use error::{Error, Result};
+pub use file::default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
+pub use file::model_file::{
+    FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TrainingProvenance,
+};
+pub use net::baseline_net::{BaselineNet, BaselineNetConfig};
+pub use net::garmatnet_net::{
+    GarMatNet, GarMatNetConfig, MAX_PARAMETERS, OutputHead, PoseEncoding,
+};
+pub use net::output_normalizer::{MIN_STD, OutputNormalizer};
+pub use predict::calibration::{
     CALIBRATION_VERSION, CalibrationSettings, DEFAULT_RIDGE, FabricCalibration,
     MAX_ABSOLUTE_WEIGHT_SUM, ReferenceDrape, WeightedFabric,
 };
-pub use default_model::{MODEL_ENV, SHIPPED_MODEL, default_model_path};
-pub use device::select_device;
-pub use error::{Error, Result};
-pub use garmatnet_net::{GarMatNet, GarMatNetConfig, MAX_PARAMETERS, OutputHead, PoseEncoding};
-pub use material_range::{FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric};
-pub use model_file::{FORMAT_NAME, FORMAT_VERSION, GarMatNetModel, ModelMeta, TrainingProvenance};
-pub use output_normalizer::{MIN_STD, OutputNormalizer};
-pub use predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions};
-pub use push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};
-pub use scene::{Character, CharacterOutput, Scene, SceneUpdate};
+pub use predict::material_range;
+pub use predict::material_range::{
+    FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric,
+};
+pub use predict::predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions};
+pub use predict::push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};
+pub use predict::scene::{Character, CharacterOutput, Scene, SceneUpdate};

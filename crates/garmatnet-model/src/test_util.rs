@@ -4,11 +4,11 @@ use burn::module::{ModuleMapper, Param};
 use burn::prelude::*;
 use garmatnet_core::{BodyAnchor, POSE_DIM, SplitMix64, Vec3};
 
-use crate::garmatnet_net::{GarMatNetConfig, MATERIAL_DIM};
-use crate::model_file::{GarMatNetModel, ModelMeta};
-use crate::output_normalizer::OutputNormalizer;
-use crate::predictor::Predictor;
-use crate::tensor_util::matrix;
+use crate::file::model_file::{GarMatNetModel, ModelMeta};
+use crate::net::garmatnet_net::{GarMatNetConfig, MATERIAL_DIM};
+use crate::net::output_normalizer::OutputNormalizer;
+use crate::net::tensor_util::matrix;
+use crate::predict::predictor::Predictor;
 use garmatnet_core::TemplateInfo;
 
 /// Tests run on the pure-Rust CPU backend, whatever features are compiled in.
@@ -17,7 +17,7 @@ pub(crate) fn cpu() -> Device {
 }
 
 pub(crate) fn to_vec<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    crate::tensor_util::to_f32(t)
+    crate::net::tensor_util::to_f32(t)
 }
 
 /// `b` random poses (±0.5 rad) and materials in [0, 1].

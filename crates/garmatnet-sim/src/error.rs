@@ -85,6 +85,32 @@ pub enum Error {
         /// The new run's value.
         got: String,
     },
+    /// A `--frame` was given with no pose file to pick from. Give `--pose FILE --frame N`,
+    /// or `--pose N` alone for frame N of the built-in motion.
+    #[error(
+        "--frame picks a pose from a pose file, but {reason}: give `--pose FILE --frame N`, \
+         or `--pose N` alone for frame N of the built-in motion"
+    )]
+    FrameWithoutPoseFile {
+        /// Why there is no file to pick from, e.g. `"no --pose was given"`.
+        reason: String,
+    },
+    /// A frame range is not written in a form garmatnet reads. Write `START..END` (END
+    /// excluded), `START..=END`, `START..` or `all`.
+    #[error(
+        "cannot read the frames `{text}`: write START..END (END excluded), START..=END, \
+         START.. or all, e.g. 0..120"
+    )]
+    MalformedFrames {
+        /// The range as written.
+        text: String,
+    },
+    /// A frame range names no frame. END must lie past START.
+    #[error("the frames `{text}` name no pose: END must lie past START")]
+    EmptyFrames {
+        /// The range as written.
+        text: String,
+    },
     /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
     /// Finished samples are on disk; run the same command again to resume.
     #[error("interrupted; finished samples are saved, run the same command again to resume")]

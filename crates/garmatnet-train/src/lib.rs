@@ -27,72 +27,49 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod alpha_sweep;
-mod baseline;
-mod bench_report;
-mod calibration_eval;
-mod checkpoint;
-mod dataset_loader;
+mod data;
 mod error;
 mod evaluation;
-mod fabric_reference;
-mod figures;
-mod files;
 mod harness;
-mod pca;
-mod physical_quality;
 mod physics;
-mod plots;
-mod prediction_errors;
 mod progress;
-mod report;
-mod showcase;
-mod split;
-mod stress;
 #[cfg(test)]
 mod test_util;
-mod trainer;
-mod training_loop;
+mod training;
 
-pub use alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
-pub use baseline::{
-    BASELINE_MANIFEST, BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest,
-    BaselineMaterial, BaselineMaterialEntry, train_baseline,
-};
-pub use calibration_eval::{CalibrationEval, CalibrationRow, evaluate_calibration};
-pub use checkpoint::{
-    CHECKPOINT_VERSION, CheckpointDir, CheckpointState, LearningRateChange, NetProgress, Phase,
-};
-pub use dataset_loader::{
+pub use data::files::split_path;
+pub use data::loader::{
     BODY_POINT_TOLERANCE, LoadedSamples, SampleKey, SampleTruth, TrainingDataset,
 };
+pub use data::split::{Split, SplitConfig, material_indices};
+pub use data::stored_sequence::{StoredSequence, stored_sequence};
 pub use error::DIVERGENCE_LOSS;
 pub use error::{Error, Result};
-pub use evaluation::{EvalConfig, EvalInputs, evaluate};
-pub use files::split_path;
-pub use harness::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
+pub use evaluation::calibration_eval::{CalibrationEval, CalibrationRow, evaluate_calibration};
+pub use evaluation::evaluate::{EvalConfig, EvalInputs, evaluate};
+pub use evaluation::plots::{ParetoPoint, Series, line_chart, pareto_chart};
+pub use evaluation::report::{
+    ErrorStats, FabricLookup, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport,
+    ModelSizes, NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats,
+    PhysicalQuality, Report, SampleErrors, TestParts, Timing,
+};
+pub use harness::bench::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
+pub use harness::stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};
 pub use physics::{
     BodyField, ClothTensors, EnergyTensors, JointLimitsPoses, NormalizerTensors, PhysicsBatch,
     PhysicsConfig, PhysicsOnlyConfig, PhysicsOnlySummary, PhysicsPoses, PoseSource, SampledPoses,
     TwoNetPhysicsLoss, rest_offset_normalizers, train_physics_only, uniform_fabric,
 };
-pub use plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use progress::{
     DEFAULT_LOG_INTERVAL_SECS, LOG_INTERVAL_VAR, Progress, SharedLog, log_interval,
 };
-pub use report::{
-    ErrorStats, FabricLookup, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport,
-    ModelSizes, NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats,
-    PhysicalQuality, Report, SampleErrors, TestParts, Timing,
+pub use training::alpha_sweep::{AlphaSweepRow, PAPER_ALPHAS, sweep_alpha};
+pub use training::baseline::{
+    BASELINE_MANIFEST, BASELINE_VERSION, Baseline, BaselineConfig, BaselineManifest,
+    BaselineMaterial, BaselineMaterialEntry, train_baseline,
 };
-pub use showcase::{
-    DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, DrapeSequence, DrapeView, EVERYDAY_POSES,
-    OutputFormat, SHIPPED_TRAINING_FRAMES, SIMULATED_COLOR, SimulatedDrape, StoredSequence,
-    compare_path, comparison_image, material_from_omega, numbered_path, resolve_frames,
-    resolve_material, resolve_pose, simulate_drape, simulate_sequence, slug, stored_sequence,
-    training_motion_frames, vertex_errors_mm,
+pub use training::checkpoint::{
+    CHECKPOINT_VERSION, CheckpointDir, CheckpointState, LearningRateChange, NetProgress, Phase,
 };
-pub use split::{Split, SplitConfig, material_indices};
-pub use stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};
-pub use trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, train};
-pub use training_loop::{COSINE_FINAL_FRACTION, LearningRateSchedule, STD_FLOOR};
+pub use training::trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, train};
+pub use training::training_loop::{COSINE_FINAL_FRACTION, LearningRateSchedule, STD_FLOOR};

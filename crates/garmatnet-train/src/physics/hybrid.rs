@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::physics::batch::{PhysicsBatch, PhysicsPoses, PoseSource};
 use crate::physics::two_net_loss::NormalizerTensors;
-use crate::training_loop::ExtraLoss;
+use crate::training::training_loop::ExtraLoss;
 
 /// The physics term of hybrid training.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

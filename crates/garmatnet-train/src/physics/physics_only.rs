@@ -4,7 +4,7 @@
 //! energy of the full prediction, plus the fitting net's distance to the Laplacian-smoothed
 //! full prediction (detached), so the two nets split the drape as the supervised labels do.
 //! Early stopping watches the same loss on a fixed held-out batch. Checkpoints and resume
-//! work as in supervised training ([`crate::checkpoint`]; both nets are one module there).
+//! work as in supervised training ([`crate::training::checkpoint`]; both nets are one module there).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -21,15 +21,15 @@ use garmatnet_model::{
 use garmatnet_sim::DrapeSettings;
 use serde::{Deserialize, Serialize};
 
-use crate::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, Phase};
-use crate::dataset_loader::Fnv1a;
+use crate::data::loader::Fnv1a;
 use crate::error::DIVERGENCE_LOSS;
 use crate::error::{Error, Result};
 use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
 use crate::physics::two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 use crate::progress::Progress;
-use crate::trainer::{NetSummary, RunOptions, TrainConfig, check_model_path};
-use crate::training_loop::{epoch_progress, initial_progress};
+use crate::training::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, Phase};
+use crate::training::trainer::{NetSummary, RunOptions, TrainConfig, check_model_path};
+use crate::training::training_loop::{epoch_progress, initial_progress};
 
 /// Both nets as one module, so one optimiser and one checkpoint file carry them.
 #[derive(Module, Debug)]

@@ -1,0 +1,6 @@
+//! The garment template: the T-shirt's pattern, its styles, its mesh and mass-spring springs.
+
+pub(crate) mod pattern;
+pub(crate) mod spring;
+pub(crate) mod style;
+pub(crate) mod template;

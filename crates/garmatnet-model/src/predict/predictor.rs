@@ -1,0 +1,1029 @@
+//! The typed prediction API: pose + material in, garment mesh out.
+//!
+//! A garment vertex is its body anchor posed with the skeleton (linear blend skinning) plus
+//! the predicted displacement D_fitting (+ D_local at full detail), paper eq. (1). With a
+//! canonical-frame model the displacement is rotated into the world by the anchor's frame.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use burn::prelude::*;
+use garmatnet_core::{
+    BodyAnchor, CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, Material, POSE_DIM,
+    Pose, Real, SignedDistance, Skeleton, SkinnedBody, TriMesh, Vec3,
+};
+
+use crate::error::{Error, Result};
+use crate::file::model_file::GarMatNetModel;
+use crate::net::garmatnet_net::MATERIAL_DIM;
+use crate::net::tensor_util::{matrix, to_f32};
+use crate::predict::material_range::{MaterialRange, TrainingFabric, nearest};
+use crate::predict::push_out::{PushOut, PushOutReport, push_out};
+use garmatnet_core::error::ensure_finite;
+
+/// How much of the model to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, PartialOrd, Ord)]
+pub enum Detail {
+    /// The generally-fitting net only: a smooth garment (about half the cost).
+    Smooth,
+    /// Both nets: the smooth garment plus its wrinkles.
+    #[default]
+    Full,
+}
+
+impl std::fmt::Display for Detail {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Detail::Smooth => "smooth",
+            Detail::Full => "full",
+        })
+    }
+}
+
+impl std::str::FromStr for Detail {
+    type Err = Error;
+
+    /// `full` or `smooth` (case-insensitive).
+    ///
+    /// # Errors
+    /// [`Error::Core`] (invalid argument) for anything else.
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "full" => Ok(Detail::Full),
+            "smooth" => Ok(Detail::Smooth),
+            _ => Err(garmatnet_core::Error::InvalidArgument(format!(
+                "unknown detail level `{s}`; use full (both nets) or smooth (the fitting net only)"
+            ))
+            .into()),
+        }
+    }
+}
+
+/// A predicted garment: the template's topology with posed vertex positions (metres).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GarmentMesh {
+    /// Vertex positions (metres, world frame); never NaN.
+    pub vertices: Vec<Vec3>,
+    /// Triangles, counter-clockwise seen from outside: the template's, shared by every mesh
+    /// a [`Predictor`] returns (a long sequence holds one copy, not one per frame).
+    pub faces: Arc<[[u32; 3]]>,
+}
+
+impl GarmentMesh {
+    /// The garment as a checked [`TriMesh`], for writing, rendering and measuring.
+    ///
+    /// # Errors
+    /// As [`TriMesh::new`] (which a prediction always passes: finite vertices, the
+    /// template's faces).
+    pub fn into_tri_mesh(self) -> Result<TriMesh> {
+        Ok(TriMesh::new(self.vertices, self.faces.to_vec())?)
+    }
+}
+
+/// How many poses [`Predictor::predict_sequence`] runs through the nets at once: enough to
+/// amortise a pass, few enough that a long sequence never holds all its activations at once.
+pub const SEQUENCE_BATCH: usize = 64;
+
+/// The garments of a pose sequence, predicted a batch at a time ([`Predictor::sequence`]).
+///
+/// Yields one mesh per pose, in order. An error (a batch the nets could not predict, e.g.
+/// a damaged model that emits a non-finite value) is yielded once, in place of that batch's
+/// first mesh, and the iterator ends after it.
+#[derive(Debug)]
+pub struct SequencePredictions<'a> {
+    predictor: &'a Predictor,
+    batches: std::slice::Chunks<'a, Pose>,
+    material: [Real; MATERIAL_DIM],
+    detail: Detail,
+    ready: std::vec::IntoIter<GarmentMesh>,
+    failed: bool,
+}
+
+impl Iterator for SequencePredictions<'_> {
+    type Item = Result<GarmentMesh>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if let Some(mesh) = self.ready.next() {
+            return Some(Ok(mesh));
+        }
+        if self.failed {
+            return None;
+        }
+        let batch = self.batches.next()?;
+        match self
+            .predictor
+            .predict_sequence_batch(batch, &self.material, self.detail)
+        {
+            Ok(meshes) => {
+                self.ready = meshes.into_iter();
+                self.ready.next().map(Ok)
+            }
+            Err(e) => {
+                self.failed = true;
+                Some(Err(e))
+            }
+        }
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let ready = self.ready.len();
+        if self.failed {
+            return (ready, Some(ready));
+        }
+        let rest: usize = self.batches.clone().map(<[Pose]>::len).sum();
+        // The next batch yields at least one item: its first mesh, or the error that ends
+        // the sequence.
+        (ready + usize::from(rest > 0), Some(ready + rest))
+    }
+}
+
+impl std::iter::FusedIterator for SequencePredictions<'_> {}
+
+/// Distinguishes predictors, so caches built against one model are not reused with another.
+static NEXT_PREDICTOR_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Predicts garments for one garment template with one trained model.
+#[derive(Debug)]
+pub struct Predictor {
+    model: GarMatNetModel,
+    faces: Arc<[[u32; 3]]>,
+    anchors: Vec<BodyAnchor>,
+    skeleton: Skeleton,
+    device: Device,
+    push_out: PushOut,
+    body: Option<CapsuleBody>,
+    id: u64,
+    /// [`GarMatNetModel::weights_fingerprint`], computed on first use.
+    fingerprint: OnceLock<String>,
+}
+
+impl Predictor {
+    /// A predictor for the garment template with `faces`, per-vertex body `anchors` and
+    /// content hash `template_hash`, on `skeleton`, running on `device`.
+    ///
+    /// # Errors
+    /// [`Error::TemplateMismatch`] if the model was trained for another template;
+    /// [`Error::Core`] (invalid mesh / argument) for faces past the vertices or unusable
+    /// anchors; [`Error::InvalidConfig`] for an inconsistent model.
+    pub fn new(
+        model: GarMatNetModel,
+        faces: Vec<[u32; 3]>,
+        anchors: Vec<BodyAnchor>,
+        template_hash: &str,
+        skeleton: Skeleton,
+        device: &Device,
+    ) -> Result<Self> {
+        model.validate()?;
+        model.ensure_template(template_hash, anchors.len())?;
+        let n = anchors.len();
+        if let Some((f, face)) = faces
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.iter().any(|&i| i as usize >= n))
+        {
+            return Err(garmatnet_core::Error::InvalidMesh(format!(
+                "face {f} = {face:?} indexes past the template's {n} vertices"
+            ))
+            .into());
+        }
+        for (i, a) in anchors.iter().enumerate() {
+            let bad_joint = a
+                .weights
+                .iter()
+                .any(|&(j, w)| j >= JOINT_COUNT || !w.is_finite());
+            if a.weights.is_empty() || bad_joint || !a.rest_point.iter().all(|v| v.is_finite()) {
+                return Err(garmatnet_core::Error::InvalidArgument(format!(
+                    "body anchor {i} is unusable: it needs a finite rest point and at least one \
+                     (joint < {JOINT_COUNT}, finite weight) pair"
+                ))
+                .into());
+            }
+        }
+        let model = GarMatNetModel {
+            fitting: model.fitting.valid().to_device(device),
+            local: model.local.valid().to_device(device),
+            ..model
+        };
+        let id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(Self {
+            model,
+            faces: faces.into(),
+            anchors,
+            skeleton,
+            device: device.clone(),
+            push_out: PushOut::default(),
+            body: None,
+            id,
+            fingerprint: OnceLock::new(),
+        })
+    }
+
+    /// A predictor for `garment` worn by `body`: the usual way to build one. Predictions from
+    /// [`Predictor::predict`] are pushed out of the posed body (on by default; see
+    /// [`Predictor::with_push_out`]).
+    ///
+    /// # Errors
+    /// [`Error::TemplateMismatch`] if the model was trained on another template, and the
+    /// errors of [`Predictor::new`].
+    pub fn for_garment(
+        model: GarMatNetModel,
+        garment: &Garment,
+        body: CapsuleBody,
+        device: &Device,
+    ) -> Result<Self> {
+        let mut predictor = Self::new(
+            model,
+            garment.rest.faces.clone(),
+            garment.anchors.clone(),
+            &garmatnet_core::TemplateInfo::of(garment).hash,
+            body.skeleton().clone(),
+            device,
+        )?;
+        predictor.body = Some(body);
+        Ok(predictor)
+    }
+
+    /// Predicts the garment for `pose` in `material`, pushed out of the posed body when the
+    /// predictor knows the body ([`Predictor::for_garment`]) and push-out is enabled.
+    ///
+    /// # Errors
+    /// [`Error::Core`] for a non-finite pose or a material that is not finite or outside the
+    /// material bounds (the message names the component and its range);
+    /// [`Error::NonFiniteOutput`] if the nets produce NaN.
+    pub fn predict(&self, pose: &Pose, material: &Material, detail: Detail) -> Result<GarmentMesh> {
+        material.validate()?;
+        let normalized = material.to_normalized();
+        match &self.body {
+            Some(body) => Ok(self
+                .predict_on_body(pose, &normalized, detail, &body.pose(pose))?
+                .0),
+            None => self.predict_normalized(pose, &normalized, detail),
+        }
+    }
+
+    /// The body this predictor's garment is worn by, if it was built with
+    /// [`Predictor::for_garment`].
+    #[must_use]
+    pub fn body(&self) -> Option<&CapsuleBody> {
+        self.body.as_ref()
+    }
+
+    /// Sets the body push-out of [`Predictor::predict`], the sequences, [`crate::Scene`]
+    /// and [`Predictor::predict_on_body`]. The result counts as a new predictor: a scene
+    /// updated with it recomputes every character, so none keeps the old setting's output.
+    ///
+    /// # Errors
+    /// [`Error::Core`] for a clearance outside [`PushOut::validate`]'s range.
+    pub fn with_push_out(mut self, push_out: PushOut) -> Result<Self> {
+        push_out.validate()?;
+        self.push_out = push_out;
+        self.id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(self)
+    }
+
+    /// The model.
+    #[must_use]
+    pub fn model(&self) -> &GarMatNetModel {
+        &self.model
+    }
+
+    /// The box of normalised materials the model was trained on, when its file records it
+    /// (models trained before it was recorded do not). A
+    /// material outside it ([`MaterialRange::outside`]) is an extrapolation: expect larger
+    /// errors there.
+    #[must_use]
+    pub fn material_range(&self) -> Option<&MaterialRange> {
+        self.model.meta.provenance.material_range.as_ref()
+    }
+
+    /// The fabrics the model was trained on, in its training dataset's order; empty when its
+    /// file does not record them (models trained before they were recorded).
+    #[must_use]
+    pub fn training_fabrics(&self) -> &[TrainingFabric] {
+        &self.model.meta.provenance.training_fabrics
+    }
+
+    /// The training fabric nearest to `material` in normalised ω, with its distance (the
+    /// first on a tie; `None` when the file records no training fabrics). The model has
+    /// learned the drapes of its training fabrics; between them it interpolates, and its
+    /// error grows with the distance to the nearest one: on Table 2's four targets it was
+    /// 8.2 mm at 0.07 and 16–21 mm at 0.33–0.46, against 8.2 mm for the training fabrics
+    /// themselves at poses the model never saw; at [`crate::FAR_FROM_TRAINING`] and beyond,
+    /// expect about twice the error (book/src/api.md).
+    #[must_use]
+    pub fn nearest_training_fabric(&self, material: &Material) -> Option<(&TrainingFabric, Real)> {
+        let omega = material.to_normalized();
+        nearest(&omega, self.training_fabrics().iter().map(|f| (f, f.omega)))
+    }
+
+    /// The device the nets run on.
+    #[must_use]
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// The garment template's faces.
+    #[must_use]
+    pub fn faces(&self) -> &[[u32; 3]] {
+        &self.faces
+    }
+
+    /// The template's faces as the meshes this predictor returns share them.
+    pub(crate) fn shared_faces(&self) -> Arc<[[u32; 3]]> {
+        Arc::clone(&self.faces)
+    }
+
+    /// The number of garment vertices n.
+    #[must_use]
+    pub fn vertex_count(&self) -> usize {
+        self.anchors.len()
+    }
+
+    pub(crate) fn id(&self) -> u64 {
+        self.id
+    }
+
+    /// Gives a test predictor a body to push out of, as [`Predictor::for_garment`] does.
+    #[cfg(test)]
+    pub(crate) fn set_test_body(&mut self, body: CapsuleBody) {
+        self.body = Some(body);
+    }
+
+    /// The model's [`GarMatNetModel::weights_fingerprint`], computed once per predictor. A
+    /// [`crate::FabricCalibration`] records it and is refused by a model with other weights.
+    #[must_use]
+    pub fn model_fingerprint(&self) -> &str {
+        self.fingerprint
+            .get_or_init(|| self.model.weights_fingerprint())
+    }
+
+    /// Predicts the garment for `pose` and normalised material coordinates ω ∈ [0, 1]⁶.
+    ///
+    /// # Errors
+    /// [`Error::Core`] for a non-finite pose or a material coordinate that is NaN or outside
+    /// [0, 1]; [`Error::NonFiniteOutput`] if the nets produce NaN.
+    pub fn predict_normalized(
+        &self,
+        pose: &Pose,
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<GarmentMesh> {
+        let mut out = self.predict_batch(&[(pose.clone(), *material)], detail)?;
+        Ok(out.remove(0))
+    }
+
+    /// Predicts many garments in one batched forward pass per net.
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_normalized`], for the first bad item.
+    pub fn predict_batch(
+        &self,
+        items: &[(Pose, [Real; MATERIAL_DIM])],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        if items.is_empty() {
+            return Ok(Vec::new());
+        }
+        for (pose, material) in items {
+            validate_inputs(pose, material)?;
+        }
+        let (pose_t, material_t) = self.input_tensors(items.iter().map(|(p, m)| (p, m)));
+        let n3 = 3 * self.vertex_count();
+        let fitting = to_f32(
+            self.model
+                .fitting
+                .forward(pose_t.clone(), material_t.clone()),
+        );
+        let local = match detail {
+            Detail::Full => Some(to_f32(self.model.local.forward(pose_t, material_t))),
+            Detail::Smooth => None,
+        };
+        items
+            .iter()
+            .enumerate()
+            .map(|(b, (pose, _))| {
+                let d_fit = self
+                    .model
+                    .fitting_norm
+                    .denormalize(&fitting[b * n3..(b + 1) * n3]);
+                let d_loc = local
+                    .as_ref()
+                    .map(|l| self.model.local_norm.denormalize(&l[b * n3..(b + 1) * n3]));
+                let vertices = self.assemble(
+                    pose,
+                    &d_fit,
+                    d_loc.as_deref(),
+                    None,
+                    &format!("batch item {b}"),
+                )?;
+                Ok(GarmentMesh {
+                    vertices,
+                    faces: Arc::clone(&self.faces),
+                })
+            })
+            .collect()
+    }
+
+    /// Predicts the garment at each of `poses` (e.g. the frames of a motion) in one
+    /// `material`: the nets run in batches of [`SEQUENCE_BATCH`] poses, and each mesh is
+    /// pushed out of its posed body as [`Predictor::predict`] pushes one. The same meshes as
+    /// one `predict` call per pose (to float rounding), with the nets' share of the time cut
+    /// by batching, so the push-out is most of what a frame costs (`garmatnet drape
+    /// --frames` uses it; figures in book/src/cli.md). Holds every mesh at once;
+    /// [`Predictor::sequence`] yields the same meshes one at a time, for captures too long
+    /// to keep in memory.
+    ///
+    /// # Errors
+    /// As [`Predictor::predict`], for the material or the first bad pose.
+    pub fn predict_sequence(
+        &self,
+        poses: &[Pose],
+        material: &Material,
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        self.sequence(poses, material, detail)?.collect()
+    }
+
+    /// The meshes of [`Predictor::predict_sequence`], predicted a batch of
+    /// [`SEQUENCE_BATCH`] poses at a time as the iterator is advanced, so at most one
+    /// batch's meshes are held: a capture of any length streams in bounded memory (to
+    /// files, or to an engine frame by frame).
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use garmatnet_core::{Material, read_poses, write_obj};
+    /// use garmatnet_model::{Detail, Predictor, select_device};
+    ///
+    /// let predictor = Predictor::default_tshirt(&select_device("cpu")?)?;
+    /// let motion = read_poses("long_capture.npz")?;
+    /// let denim = Material::preset("denim heavy")?;
+    /// for (frame, mesh) in predictor.sequence(&motion, &denim, Detail::Full)?.enumerate() {
+    ///     let mesh = mesh?;
+    ///     write_obj(format!("frame{frame:05}.obj"), &mesh.into_tri_mesh()?)?;
+    /// }
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Predictor::predict`], at once, for the material or the first non-finite pose
+    /// (the message names its index). A batch that fails later is an error item
+    /// ([`SequencePredictions`]).
+    pub fn sequence<'a>(
+        &'a self,
+        poses: &'a [Pose],
+        material: &Material,
+        detail: Detail,
+    ) -> Result<SequencePredictions<'a>> {
+        material.validate()?;
+        let normalized = material.to_normalized();
+        for (i, pose) in poses.iter().enumerate() {
+            validate_inputs(pose, &normalized).map_err(|e| {
+                garmatnet_core::Error::InvalidArgument(format!("pose {i} of the sequence: {e}"))
+            })?;
+        }
+        Ok(SequencePredictions {
+            predictor: self,
+            batches: poses.chunks(SEQUENCE_BATCH),
+            material: normalized,
+            detail,
+            ready: Vec::new().into_iter(),
+            failed: false,
+        })
+    }
+
+    /// The meshes of one batch of a sequence, each pushed out of its posed body.
+    fn predict_sequence_batch(
+        &self,
+        poses: &[Pose],
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        let items: Vec<_> = poses.iter().map(|p| (p.clone(), *material)).collect();
+        let meshes = self.predict_batch(&items, detail)?;
+        Ok(self.pushed_out(meshes, poses))
+    }
+
+    /// `meshes`, each pushed out of the body posed at its pose in `poses`, when the
+    /// predictor knows the body and push-out is enabled.
+    pub(crate) fn pushed_out(
+        &self,
+        mut meshes: Vec<GarmentMesh>,
+        poses: &[Pose],
+    ) -> Vec<GarmentMesh> {
+        for (mesh, pose) in meshes.iter_mut().zip(poses) {
+            self.push_out_vertices(&mut mesh.vertices, pose);
+        }
+        meshes
+    }
+
+    /// Pushes `vertices` (any of the garment's, in any order) out of the body posed at
+    /// `pose`, when the predictor knows the body and push-out is enabled.
+    pub(crate) fn push_out_vertices(&self, vertices: &mut [Vec3], pose: &Pose) {
+        if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
+            // As in `predict`, the report is dropped: `predict_on_body` returns it.
+            let _ = push_out(vertices, &body.pose(pose), self.push_out.epsilon);
+        }
+    }
+
+    /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;
+    /// see [`Predictor::with_push_out`]).
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_normalized`].
+    pub fn predict_on_body(
+        &self,
+        pose: &Pose,
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+        body: &(dyn SignedDistance + Sync),
+    ) -> Result<(GarmentMesh, PushOutReport)> {
+        let mut mesh = self.predict_normalized(pose, material, detail)?;
+        let report = if self.push_out.enabled {
+            push_out(&mut mesh.vertices, body, self.push_out.epsilon)
+        } else {
+            PushOutReport::default()
+        };
+        Ok((mesh, report))
+    }
+
+    /// The garment's body points for `pose`: every anchor posed by linear blend skinning.
+    #[must_use]
+    pub fn body_points(&self, pose: &Pose) -> Vec<Vec3> {
+        let t = self.skeleton.skinning_transforms(pose);
+        self.anchors.iter().map(|a| a.posed_point(&t)).collect()
+    }
+
+    /// `[B, 72]` pose and `[B, 6]` material tensors on the predictor's device.
+    pub(crate) fn input_tensors<'a>(
+        &self,
+        items: impl ExactSizeIterator<Item = (&'a Pose, &'a [Real; MATERIAL_DIM])>,
+    ) -> (Tensor<2>, Tensor<2>) {
+        let b = items.len();
+        let mut poses = Vec::with_capacity(b * POSE_DIM);
+        let mut materials = Vec::with_capacity(b * MATERIAL_DIM);
+        for (p, m) in items {
+            poses.extend(p.to_vec().iter().map(|&v| v as f32));
+            materials.extend(m.iter().map(|&v| v as f32));
+        }
+        (
+            matrix(poses, b, POSE_DIM, &self.device),
+            matrix(materials, b, MATERIAL_DIM, &self.device),
+        )
+    }
+
+    /// Garment vertices from denormalised displacements (metres, the model's frame), for all
+    /// vertices or the subset `vertices` (then `fitting[3i..3i+3]` belongs to `vertices[i]`).
+    pub(crate) fn assemble(
+        &self,
+        pose: &Pose,
+        fitting: &[Real],
+        local: Option<&[Real]>,
+        vertices: Option<&[usize]>,
+        what: &str,
+    ) -> Result<Vec<Vec3>> {
+        let transforms: [Iso3; JOINT_COUNT] = self.skeleton.skinning_transforms(pose);
+        let frame = self.model.displacement_frame();
+        let count = vertices.map_or(self.vertex_count(), <[usize]>::len);
+        let mut out = Vec::with_capacity(count);
+        for i in 0..count {
+            let v = vertices.map_or(i, |s| s[i]);
+            let anchor = &self.anchors[v];
+            let mut d = Vec3::new(fitting[3 * i], fitting[3 * i + 1], fitting[3 * i + 2]);
+            if let Some(l) = local {
+                d += Vec3::new(l[3 * i], l[3 * i + 1], l[3 * i + 2]);
+            }
+            if frame == DisplacementFrame::Canonical {
+                d = anchor.from_frame(&d, frame, &transforms);
+            }
+            let p = anchor.posed_point(&transforms) + d;
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(Error::NonFiniteOutput {
+                    what: what.to_owned(),
+                    vertex: v,
+                });
+            }
+            out.push(p);
+        }
+        Ok(out)
+    }
+}
+
+/// A finite pose and a material inside the unit cube.
+pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> Result<()> {
+    pose.validate()?;
+    ensure_finite("normalised material coordinates", material.iter().copied())?;
+    if let Some((i, &v)) = material
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(0.0..=1.0).contains(*v))
+    {
+        return Err(garmatnet_core::Error::OutOfRange {
+            what: format!("normalised material coordinate {i}"),
+            value: v,
+            min: 0.0,
+            max: 1.0,
+            hint: "; normalise the material with Material::to_normalized".into(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{cpu, small_model, test_anchors, test_faces, test_predictor};
+    use approx::assert_relative_eq;
+    use garmatnet_core::{JointLimits, Sphere, SplitMix64};
+
+    #[test]
+    fn detail_parses_its_display_and_rejects_others() {
+        for d in [Detail::Full, Detail::Smooth] {
+            assert_eq!(d.to_string().parse::<Detail>().ok(), Some(d));
+        }
+        assert_eq!(" SMOOTH ".parse::<Detail>().ok(), Some(Detail::Smooth));
+        let err = "wrinkly".parse::<Detail>().expect_err("unknown level");
+        assert!(err.to_string().contains("use full"), "{err}");
+    }
+
+    pub(crate) fn predictor(seed: u64, frame: DisplacementFrame) -> Predictor {
+        let dev = cpu();
+        let mut model = small_model(seed, None, &dev);
+        for net in [&mut model.fitting, &mut model.local] {
+            net.config.displacement_frame = frame;
+        }
+        test_predictor(model, &dev)
+    }
+
+    fn random_material(rng: &mut SplitMix64) -> [Real; 6] {
+        std::array::from_fn(|_| rng.next_f64())
+    }
+
+    #[test]
+    fn the_nearest_training_fabric_is_found_by_normalised_omega() {
+        let dev = cpu();
+        let without = test_predictor(small_model(7, None, &dev), &dev);
+        let linen = Material::preset("Linen").unwrap();
+        assert!(without.training_fabrics().is_empty());
+        assert!(without.nearest_training_fabric(&linen).is_none());
+
+        let mut model = small_model(7, None, &dev);
+        model.meta.provenance.training_fabrics = ["Denim Heavy", "Linen", "Silk Chiffon"]
+            .map(|name| TrainingFabric {
+                name: name.into(),
+                omega: Material::preset(name).unwrap().to_normalized(),
+            })
+            .into();
+        let with = test_predictor(model, &dev);
+        assert_eq!(with.training_fabrics().len(), 3);
+        let (fabric, distance) = with.nearest_training_fabric(&linen).unwrap();
+        assert_eq!((fabric.name.as_str(), distance), ("Linen", 0.0));
+        // Tulle is nearest Silk Chiffon, at the distance of their normalised ω.
+        let tulle = Material::preset("Tulle").unwrap();
+        let (fabric, distance) = with.nearest_training_fabric(&tulle).unwrap();
+        assert_eq!(fabric.name, "Silk Chiffon");
+        let (a, b) = (
+            tulle.to_normalized(),
+            Material::preset("Silk Chiffon").unwrap().to_normalized(),
+        );
+        let expected = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<Real>();
+        assert_relative_eq!(distance, expected.sqrt(), epsilon = 1e-12);
+        assert!(distance > 0.0);
+    }
+
+    #[test]
+    fn predictions_are_finite_and_batch_matches_single() {
+        let p = predictor(1, DisplacementFrame::World);
+        let mut rng = SplitMix64::new(9);
+        let limits = JointLimits::default();
+        let items: Vec<_> = (0..4)
+            .map(|_| (limits.sample(&mut rng, 1.0), random_material(&mut rng)))
+            .collect();
+        let batch = p.predict_batch(&items, Detail::Full).unwrap();
+        for ((pose, m), mesh) in items.iter().zip(&batch) {
+            assert_eq!(mesh.vertices.len(), 50);
+            assert!(
+                mesh.vertices
+                    .iter()
+                    .all(|v| v.iter().all(|c| c.is_finite()))
+            );
+            let single = p.predict_normalized(pose, m, Detail::Full).unwrap();
+            for (a, b) in single.vertices.iter().zip(&mesh.vertices) {
+                assert_relative_eq!(a, b, epsilon = 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn smooth_detail_is_body_plus_fitting_displacement() {
+        let p = predictor(2, DisplacementFrame::World);
+        let pose = Pose::zero();
+        let m = [0.5; 6];
+        let smooth = p.predict_normalized(&pose, &m, Detail::Smooth).unwrap();
+        let full = p.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let (pt, mt) = p.input_tensors([(&pose, &m)].into_iter());
+        let loc = p
+            .model
+            .local_norm
+            .denormalize(&to_f32(p.model.local.forward(pt, mt)));
+        for i in 0..50 {
+            let d = full.vertices[i] - smooth.vertices[i];
+            assert_relative_eq!(
+                d,
+                Vec3::new(loc[3 * i], loc[3 * i + 1], loc[3 * i + 2]),
+                epsilon = 1e-9
+            );
+        }
+    }
+
+    #[test]
+    fn canonical_frame_rotates_displacements_with_the_body() {
+        let world = predictor(3, DisplacementFrame::World);
+        let canon = predictor(3, DisplacementFrame::Canonical);
+        let m = [0.3; 6];
+        // At the rest pose every anchor frame is the identity: both frames agree.
+        let a = world
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap();
+        let b = canon
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap();
+        for (x, y) in a.vertices.iter().zip(&b.vertices) {
+            assert_relative_eq!(x, y, epsilon = 1e-9);
+        }
+        let mut pose = Pose::zero();
+        pose.set_joint(0, Vec3::new(0.0, 1.0, 0.0));
+        let a = world.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let b = canon.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let body = canon.body_points(&pose);
+        let moved = a
+            .vertices
+            .iter()
+            .zip(&b.vertices)
+            .any(|(x, y)| (x - y).norm() > 1e-4);
+        assert!(moved, "a rotated root must rotate canonical displacements");
+        for ((x, y), p) in a.vertices.iter().zip(&b.vertices).zip(&body) {
+            // Same displacement length: only its direction changes.
+            assert_relative_eq!((x - p).norm(), (y - p).norm(), epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let p = predictor(4, DisplacementFrame::World);
+        let mut m = [0.5; 6];
+        m[2] = f64::NAN;
+        assert!(matches!(
+            p.predict_normalized(&Pose::zero(), &m, Detail::Full),
+            Err(Error::Core(garmatnet_core::Error::NonFinite { .. }))
+        ));
+        m[2] = 1.5;
+        let err = p
+            .predict_normalized(&Pose::zero(), &m, Detail::Full)
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::Core(garmatnet_core::Error::OutOfRange { .. })),
+            "{err}"
+        );
+        let mut pose = Pose::zero();
+        pose.set_joint(5, Vec3::new(f64::NAN, 0.0, 0.0));
+        assert!(
+            p.predict_normalized(&pose, &[0.5; 6], Detail::Smooth)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn non_finite_outputs_are_reported() {
+        let dev = cpu();
+        let mut model = small_model(5, None, &dev);
+        // A diverged net (NaN weights straight from training, never from a file).
+        let nan = Tensor::<1>::full([150], f32::NAN, &dev);
+        model.fitting.output.bias = Some(burn::module::Param::from_tensor(nan));
+        let p = test_predictor(model, &dev);
+        let err = p
+            .predict_normalized(&Pose::zero(), &[0.5; 6], Detail::Smooth)
+            .unwrap_err();
+        assert!(matches!(err, Error::NonFiniteOutput { .. }), "{err}");
+        // A sequence yields the failure once and ends.
+        let poses = vec![Pose::zero(); SEQUENCE_BATCH + 1];
+        let silk = Material::preset("Silk Chiffon").unwrap();
+        let mut stream = p.sequence(&poses, &silk, Detail::Smooth).unwrap();
+        assert!(matches!(
+            stream.next(),
+            Some(Err(Error::NonFiniteOutput { .. }))
+        ));
+        assert!(stream.next().is_none());
+        assert_eq!(stream.size_hint(), (0, Some(0)));
+        assert!(p.predict_sequence(&poses, &silk, Detail::Smooth).is_err());
+    }
+
+    #[test]
+    fn construction_refuses_other_templates_and_bad_faces() {
+        let dev = cpu();
+        let model = || small_model(6, None, &dev);
+        let sk = Skeleton::smpl_neutral;
+        assert!(matches!(
+            Predictor::new(model(), test_faces(), test_anchors(), "other", sk(), &dev),
+            Err(Error::TemplateMismatch { .. })
+        ));
+        assert!(
+            Predictor::new(
+                model(),
+                vec![[0, 1, 50]],
+                test_anchors(),
+                "test-template",
+                sk(),
+                &dev
+            )
+            .is_err()
+        );
+        let mut anchors = test_anchors();
+        anchors[3].weights.clear();
+        assert!(
+            Predictor::new(model(), test_faces(), anchors, "test-template", sk(), &dev).is_err()
+        );
+    }
+
+    /// GPU (wgpu) predictions equal CPU predictions, for both pose encodings; CI runs it on
+    /// lavapipe.
+    #[cfg(feature = "wgpu")]
+    #[test]
+    fn wgpu_predictions_match_cpu() {
+        for encoding in crate::PoseEncoding::ALL {
+            wgpu_predictions_match_cpu_with(encoding);
+        }
+    }
+
+    #[cfg(feature = "wgpu")]
+    fn wgpu_predictions_match_cpu_with(encoding: crate::PoseEncoding) {
+        let cpu_dev = cpu();
+        let gpu = crate::select_device("gpu").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.safetensors");
+        let mut model = small_model(31, Some(4), &cpu_dev);
+        if !encoding.is_axis_angle() {
+            for net in [&mut model.fitting, &mut model.local] {
+                *net = net
+                    .config()
+                    .clone()
+                    .with_pose_encoding(encoding)
+                    .init(&cpu_dev);
+            }
+        }
+        model.save(&path).unwrap();
+        let make = |dev: &Device| {
+            let model = GarMatNetModel::load(&path, dev).unwrap();
+            test_predictor(model, dev)
+        };
+        let (on_cpu, on_gpu) = (make(&cpu_dev), make(&gpu));
+        let mut rng = SplitMix64::new(3);
+        let limits = JointLimits::default();
+        let items: Vec<_> = (0..3)
+            .map(|_| (limits.sample(&mut rng, 1.0), random_material(&mut rng)))
+            .collect();
+        let a = on_cpu.predict_batch(&items, Detail::Full).unwrap();
+        let b = on_gpu.predict_batch(&items, Detail::Full).unwrap();
+        for (x, y) in a.iter().zip(&b) {
+            for (u, v) in x.vertices.iter().zip(&y.vertices) {
+                assert_relative_eq!(u, v, max_relative = 1e-4, epsilon = 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn a_sequence_is_each_pose_predicted_and_pushed_out_alone() {
+        let mut p = predictor(3, DisplacementFrame::World);
+        p.body = Some(CapsuleBody::smpl_neutral());
+        let mut rng = SplitMix64::new(5);
+        let limits = JointLimits::default();
+        // More poses than one batch, so the chunking is crossed.
+        let poses: Vec<Pose> = (0..SEQUENCE_BATCH + 3)
+            .map(|_| limits.sample(&mut rng, 1.0))
+            .collect();
+        let silk = Material::preset("Silk Chiffon").unwrap();
+        let sequence = p.predict_sequence(&poses, &silk, Detail::Full).unwrap();
+        assert_eq!(sequence.len(), poses.len());
+        let mut pushed = 0;
+        for (pose, mesh) in poses.iter().zip(&sequence) {
+            let alone = p.predict(pose, &silk, Detail::Full).unwrap();
+            for (a, b) in alone.vertices.iter().zip(&mesh.vertices) {
+                assert_relative_eq!(a, b, epsilon = 1e-5);
+            }
+            let raw = p
+                .predict_normalized(pose, &silk.to_normalized(), Detail::Full)
+                .unwrap();
+            if raw.vertices != mesh.vertices {
+                pushed += 1;
+            }
+        }
+        assert!(pushed > 0, "no frame was pushed out of the body");
+        assert!(
+            sequence
+                .iter()
+                .all(|mesh| Arc::ptr_eq(&mesh.faces, &sequence[0].faces)
+                    && *mesh.faces == *p.faces()),
+            "every frame shares the template's one copy of the faces"
+        );
+        assert!(
+            p.predict_sequence(&[], &silk, Detail::Full)
+                .unwrap()
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn a_streamed_sequence_yields_the_collected_meshes_a_batch_at_a_time() {
+        let mut p = predictor(3, DisplacementFrame::World);
+        p.body = Some(CapsuleBody::smpl_neutral());
+        let mut rng = SplitMix64::new(6);
+        let limits = JointLimits::default();
+        let n = 2 * SEQUENCE_BATCH + 5;
+        let poses: Vec<Pose> = (0..n).map(|_| limits.sample(&mut rng, 1.0)).collect();
+        let denim = Material::preset("Denim Heavy").unwrap();
+        let all = p.predict_sequence(&poses, &denim, Detail::Full).unwrap();
+        let mut stream = p.sequence(&poses, &denim, Detail::Full).unwrap();
+        assert_eq!(stream.size_hint(), (1, Some(n)));
+        let first = stream.next().unwrap().unwrap();
+        assert_eq!(first, all[0]);
+        // One batch predicted, its other meshes waiting: no more than a batch is held.
+        assert_eq!(stream.ready.len(), SEQUENCE_BATCH - 1);
+        assert_eq!(stream.size_hint(), (SEQUENCE_BATCH - 1 + 1, Some(n - 1)));
+        let rest: Vec<GarmentMesh> = stream.by_ref().map(Result::unwrap).collect();
+        assert_eq!(rest.as_slice(), &all[1..]);
+        assert_eq!(stream.size_hint(), (0, Some(0)));
+        assert!(stream.next().is_none(), "fused");
+        assert!(
+            p.sequence(&[], &denim, Detail::Smooth)
+                .unwrap()
+                .next()
+                .is_none()
+        );
+        let mut bad = denim;
+        bad.density = f64::NAN;
+        assert!(matches!(
+            p.sequence(&poses, &bad, Detail::Full),
+            Err(Error::Core(_))
+        ));
+        // A bad pose anywhere is refused before any work, by its index.
+        let mut poses = poses;
+        poses[SEQUENCE_BATCH + 2].set_joint(4, Vec3::new(0.0, f64::INFINITY, 0.0));
+        let err = p.sequence(&poses, &denim, Detail::Full).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains(&format!("pose {} of the sequence", SEQUENCE_BATCH + 2)),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn push_out_on_body_moves_vertices_out_of_a_sphere() {
+        let p = predictor(7, DisplacementFrame::World);
+        let pose = Pose::zero();
+        let m = [0.5; 6];
+        let plain = p.predict_normalized(&pose, &m, Detail::Full).unwrap();
+        let centre = plain.vertices[0];
+        let sphere = Sphere {
+            centre,
+            radius: 0.1,
+        };
+        let inside = plain
+            .vertices
+            .iter()
+            .filter(|v| sphere.distance(v) < 0.002)
+            .count();
+        assert!(inside > 0);
+        let (mesh, report) = p.predict_on_body(&pose, &m, Detail::Full, &sphere).unwrap();
+        assert_eq!(report.moved, inside);
+        assert!(
+            mesh.vertices
+                .iter()
+                .all(|v| sphere.distance(v) >= 0.002 - 1e-9)
+        );
+        for epsilon in [Real::NAN, -0.001, 1.0] {
+            let refused = predictor(7, DisplacementFrame::World)
+                .with_push_out(PushOut {
+                    enabled: true,
+                    epsilon,
+                })
+                .unwrap_err();
+            assert!(refused.to_string().contains("epsilon"), "{refused}");
+        }
+        let off = predictor(7, DisplacementFrame::World)
+            .with_push_out(PushOut {
+                enabled: false,
+                ..PushOut::default()
+            })
+            .unwrap();
+        let (mesh, report) = off
+            .predict_on_body(&pose, &m, Detail::Full, &sphere)
+            .unwrap();
+        assert_eq!(report.moved, 0);
+        assert_eq!(mesh, plain);
+    }
+}

@@ -1,0 +1,599 @@
+//! A seeded sampler of independent everyday poses.
+//!
+//! [`crate::MotionGenerator`] walks one smooth motion, so its frames are neighbours of each
+//! other and its arms never hang lower than about 45° (see its docs). [`PoseSampler`] draws
+//! every pose on its own, in an anatomically meaningful parametrisation rather than raw
+//! axis-angle components:
+//!
+//! - **arms** ([`ArmPlacement`]): the upper arm's direction in the chest's frame (elevation
+//!   above the horizontal and azimuth from the side toward the front), its twist about
+//!   itself and the elbow's bend; the collar follows (shrugs as the arm rises, leans forward
+//!   as it reaches). Each arm hangs at the side (elevation −88° … −60°; below about −75° the upper arm presses
+//!   into the ribs, which the body allows up to 3 cm), lies in between
+//!   (−60° … 45°, in front of the body to somewhat behind it) or is raised (45° … 85°), with
+//!   the probabilities of [`PoseSamplerConfig`];
+//! - **torso**: a bend forward or back, a twist and a side bend, each spread evenly over
+//!   spine1–3;
+//! - **legs**: standing, apart, mid-stride (one leg forward, the other back, the back knee
+//!   bent) or sitting-ish (hips and knees bent), with a weight shift (pelvis tilted over one
+//!   leg, the other knee bent) on some;
+//! - head and neck look around a little; wrists bend.
+//!
+//! Every pose lies within [`PoseSamplerConfig::limits`] and is refused and redrawn when the
+//! body passes through itself ([`SelfIntersection`], arms kept
+//! [`PoseSamplerConfig::arm_gap_m`] off every other part). Pose `i` depends only on the seed
+//! and `i` (each index draws from its own SplitMix64 stream), so the first N of N + k poses are
+//! the N poses, whatever the thread count.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use garmatnet_core::{
+    CapsuleBody, JOINT_COUNT, JointLimits, Pose, Real, SkinnedBody, SplitMix64, Vec3,
+};
+
+use crate::error::{Error, Result};
+use crate::motion::arm_placement::{ArmPlacement, Side};
+use crate::motion::self_intersection::{DEFAULT_ARM_GAP, SelfIntersection};
+
+/// The default fraction of arms drawn hanging at the side.
+pub const DEFAULT_HANGING_FRACTION: Real = 0.5;
+
+/// The default fraction of arms drawn raised above 45°.
+pub const DEFAULT_RAISED_FRACTION: Real = 0.2;
+
+/// Settings of [`PoseSampler`]. Missing fields take the defaults when read from JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct PoseSamplerConfig {
+    /// Seed: the same seed and settings give bit-identical poses.
+    pub seed: u64,
+    /// Smallest gap (metres) kept between an arm and any other body part
+    /// ([`SelfIntersection`]; default [`DEFAULT_ARM_GAP`], -3 cm: an arm may press 3 cm into
+    /// another part).
+    pub arm_gap_m: Real,
+    /// Fraction ∈ [0, 1] of arms drawn hanging at the side, elevation −88° … −60° (default
+    /// [`DEFAULT_HANGING_FRACTION`]). Hanging arms that would touch the torso are redrawn, so
+    /// the fraction of poses with the arm that low comes out somewhat smaller.
+    pub hanging_fraction: Real,
+    /// Fraction ∈ [0, 1] of arms drawn raised, elevation 45° … 85° (default
+    /// [`DEFAULT_RAISED_FRACTION`]); the rest lie in between. `hanging_fraction +
+    /// raised_fraction` is at most 1.
+    pub raised_fraction: Real,
+    /// The limits every pose lies within (default [`JointLimits::everyday`]).
+    pub limits: JointLimits,
+    /// How many poses to draw for one index before giving up with
+    /// [`Error::PoseSamplingExhausted`] (default 1000; about 1 in 3 draws is refused with
+    /// the defaults).
+    pub max_attempts: usize,
+}
+
+impl Default for PoseSamplerConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            arm_gap_m: DEFAULT_ARM_GAP,
+            hanging_fraction: DEFAULT_HANGING_FRACTION,
+            raised_fraction: DEFAULT_RAISED_FRACTION,
+            limits: JointLimits::everyday(),
+            max_attempts: 1000,
+        }
+    }
+}
+
+/// How often an arm is redrawn on its own, its body kept, before the whole pose is redrawn.
+const ARM_RETRIES: usize = 16;
+
+/// The seeded sampler of independent poses: see the [module docs](self).
+///
+/// ```
+/// use garmatnet_sim::{PoseSampler, PoseSamplerConfig};
+/// let sampler = PoseSampler::new(PoseSamplerConfig { seed: 7, ..Default::default() }).unwrap();
+/// let poses = sampler.poses(3).unwrap();
+/// assert_eq!(poses[2], sampler.pose(2).unwrap()); // pose i depends only on (seed, i)
+/// ```
+#[derive(Debug, Clone)]
+pub struct PoseSampler {
+    config: PoseSamplerConfig,
+    body: CapsuleBody,
+    check: SelfIntersection,
+}
+
+impl PoseSampler {
+    /// A sampler on [`CapsuleBody::smpl_neutral`].
+    ///
+    /// # Errors
+    /// As [`PoseSampler::with_body`].
+    pub fn new(config: PoseSamplerConfig) -> Result<Self> {
+        Self::with_body(config, CapsuleBody::smpl_neutral())
+    }
+
+    /// A sampler whose poses keep `body` free of self-intersection.
+    ///
+    /// # Errors
+    /// [`garmatnet_core::Error::OutOfRange`] for fractions outside [0, 1] or summing past 1,
+    /// `max_attempts` of 0, an arm gap outside -0.05 … 0.05 m, or limits without 24 joints or
+    /// with a lower bound above its upper bound.
+    pub fn with_body(config: PoseSamplerConfig, body: CapsuleBody) -> Result<Self> {
+        let out_of_range = |what: &str, value: Real, min: Real, max: Real| {
+            Error::from(garmatnet_core::Error::OutOfRange {
+                what: what.into(),
+                value,
+                min,
+                max,
+                hint: String::new(),
+            })
+        };
+        for (what, value) in [
+            ("pose sampler's hanging_fraction", config.hanging_fraction),
+            ("pose sampler's raised_fraction", config.raised_fraction),
+            (
+                "pose sampler's hanging_fraction + raised_fraction",
+                config.hanging_fraction + config.raised_fraction,
+            ),
+        ] {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(out_of_range(what, value, 0.0, 1.0));
+            }
+        }
+        if config.max_attempts == 0 {
+            return Err(out_of_range("pose sampler's max_attempts", 0.0, 1.0, 1e9));
+        }
+        let limits = &config.limits;
+        if limits.min.len() != JOINT_COUNT || limits.max.len() != JOINT_COUNT {
+            return Err(out_of_range(
+                "pose sampler's joint limits (joints)",
+                limits.min.len().min(limits.max.len()) as Real,
+                JOINT_COUNT as Real,
+                JOINT_COUNT as Real,
+            ));
+        }
+        for j in 0..JOINT_COUNT {
+            for c in 0..3 {
+                let (lo, hi) = (limits.min[j][c], limits.max[j][c]);
+                if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                    return Err(out_of_range(
+                        &format!("pose sampler's joint {j} lower limit, component {c}"),
+                        lo,
+                        Real::NEG_INFINITY,
+                        hi,
+                    ));
+                }
+            }
+        }
+        let check = SelfIntersection::new(&body, config.arm_gap_m)?;
+        Ok(Self {
+            config,
+            body,
+            check,
+        })
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn config(&self) -> &PoseSamplerConfig {
+        &self.config
+    }
+
+    /// The self-intersection check the poses pass.
+    #[must_use]
+    pub fn self_intersection(&self) -> &SelfIntersection {
+        &self.check
+    }
+
+    /// Pose `index`: within the limits and free of self-intersection, a function of the seed,
+    /// the settings and `index` alone.
+    ///
+    /// # Errors
+    /// [`Error::PoseSamplingExhausted`] if `max_attempts` draws are all refused.
+    pub fn pose(&self, index: u64) -> Result<Pose> {
+        let mut rng = stream(self.config.seed, index);
+        let skeleton = self.body.skeleton();
+        let limits = &self.config.limits;
+        let mut attempts = 0;
+        while attempts < self.config.max_attempts {
+            attempts += 1;
+            let mut pose = self.draw_body(&mut rng);
+            pose = limits.clamp(&pose);
+            if self.check.worst(&pose).is_some() {
+                continue;
+            }
+            let mut placed = true;
+            for side in [Side::Left, Side::Right] {
+                // The band is kept while the arm is redrawn: hanging arms, refused most
+                // often, keep their share.
+                let band = rng.next_f64();
+                let mut ok = false;
+                for _ in 0..ARM_RETRIES {
+                    let mut candidate = pose.clone();
+                    self.draw_arm(&mut rng, band)
+                        .apply_on(skeleton, &mut candidate, side);
+                    draw_forearm(&mut rng, limits, &mut candidate, side);
+                    if limits.validate(&candidate, 0.0).is_ok()
+                        && self.check.worst(&candidate).is_none()
+                    {
+                        pose = candidate;
+                        ok = true;
+                        break;
+                    }
+                }
+                if !ok {
+                    placed = false;
+                    break;
+                }
+            }
+            if placed {
+                return Ok(pose);
+            }
+        }
+        Err(Error::PoseSamplingExhausted { index, attempts })
+    }
+
+    /// Poses `0..count`, drawn in parallel (the result does not depend on the thread count).
+    ///
+    /// # Errors
+    /// As [`PoseSampler::pose`], for the first index that fails.
+    pub fn poses(&self, count: usize) -> Result<Vec<Pose>> {
+        (0..count as u64)
+            .into_par_iter()
+            .map(|i| self.pose(i))
+            .collect()
+    }
+
+    /// One arm's placement, from the hanging, middle or raised band (`band` uniform in
+    /// [0, 1) picks it).
+    fn draw_arm(&self, rng: &mut SplitMix64, band: Real) -> ArmPlacement {
+        let deg = |d: Real| d.to_radians();
+        let (elevation, azimuth) = if band < self.config.hanging_fraction {
+            (
+                rng.uniform(deg(-88.0), deg(-60.0)),
+                rng.uniform(deg(-40.0), deg(30.0)),
+            )
+        } else if band < self.config.hanging_fraction + self.config.raised_fraction {
+            (
+                rng.uniform(deg(45.0), deg(85.0)),
+                rng.uniform(deg(-30.0), deg(100.0)),
+            )
+        } else {
+            (
+                rng.uniform(deg(-60.0), deg(45.0)),
+                rng.uniform(deg(-45.0), deg(110.0)),
+            )
+        };
+        let elbow = if rng.next_f64() < 0.3 {
+            rng.uniform(0.0, 0.25)
+        } else {
+            rng.uniform(0.25, 2.1)
+        };
+        ArmPlacement {
+            elevation_rad: elevation,
+            azimuth_rad: azimuth,
+            twist_rad: rng.uniform(-0.6, 0.6),
+            elbow_flex_rad: elbow,
+        }
+    }
+
+    /// Everything but the arms: torso, legs, weight shift, head.
+    fn draw_body(&self, rng: &mut SplitMix64) -> Pose {
+        let mut pose = Pose::zero();
+        // Torso: a bend (mostly small, sometimes well forward, sometimes back), a twist and a
+        // side bend, each spread evenly over the three spine joints.
+        let bend_kind = rng.next_f64();
+        let bend = if bend_kind < 0.6 {
+            rng.uniform(-0.1, 0.25)
+        } else if bend_kind < 0.85 {
+            rng.uniform(0.25, 0.95)
+        } else {
+            rng.uniform(-0.45, -0.1)
+        };
+        let twist = rng.uniform(-0.65, 0.65);
+        let side_bend = rng.uniform(-0.35, 0.35);
+        for j in [3, 6, 9] {
+            pose.set_joint(j, Vec3::new(bend, twist, side_bend) / 3.0);
+        }
+        // Legs: standing, apart, mid-stride or sitting-ish.
+        let stance = rng.next_f64();
+        let (mut left_hip, mut right_hip, mut left_knee, mut right_knee) = if stance < 0.35 {
+            let mut hip = |abduct: Real| {
+                Vec3::new(
+                    rng.uniform(-0.15, 0.1),
+                    rng.uniform(-0.1, 0.1),
+                    abduct * rng.uniform(0.0, 0.12),
+                )
+            };
+            let (left, right) = (hip(1.0), hip(-1.0));
+            (left, right, rng.uniform(0.0, 0.2), rng.uniform(0.0, 0.2))
+        } else if stance < 0.6 {
+            let mut hip = |abduct: Real| {
+                Vec3::new(
+                    rng.uniform(-0.2, 0.1),
+                    rng.uniform(-0.2, 0.2),
+                    abduct * rng.uniform(0.15, 0.5),
+                )
+            };
+            let (left, right) = (hip(1.0), hip(-1.0));
+            (left, right, rng.uniform(0.0, 0.4), rng.uniform(0.0, 0.4))
+        } else if stance < 0.9 {
+            // Mid-stride: one leg forward, the other back with its knee bent.
+            let mut hip = |lo: Real, hi: Real| {
+                Vec3::new(
+                    rng.uniform(lo, hi),
+                    rng.uniform(-0.1, 0.1),
+                    rng.uniform(0.0, 0.1),
+                )
+            };
+            let (front, back) = (hip(-0.8, -0.2), hip(0.05, 0.45));
+            let (front_knee, back_knee) = (rng.uniform(0.0, 0.5), rng.uniform(0.1, 0.9));
+            let mirror = |v: Vec3| Vec3::new(v.x, -v.y, -v.z);
+            if rng.next_f64() < 0.5 {
+                (front, mirror(back), front_knee, back_knee)
+            } else {
+                (back, mirror(front), back_knee, front_knee)
+            }
+        } else {
+            // Sitting-ish: hips and knees bent about equally.
+            let hips = rng.uniform(-1.5, -0.8);
+            let spread = rng.uniform(0.0, 0.35);
+            let left = Vec3::new(hips + rng.uniform(-0.1, 0.1), 0.0, spread);
+            let right = Vec3::new(hips + rng.uniform(-0.1, 0.1), 0.0, -spread);
+            (
+                left,
+                right,
+                -hips + rng.uniform(-0.2, 0.3),
+                -hips + rng.uniform(-0.2, 0.3),
+            )
+        };
+        // A weight shift on some: the pelvis tilts over one leg, both hips turn back so the
+        // legs stay upright, the free knee bends.
+        let mut pelvis = Vec3::new(rng.uniform(-0.12, 0.12), rng.uniform(-0.2, 0.2), 0.0);
+        if rng.next_f64() < 0.4 {
+            let tilt = rng.uniform(-0.15, 0.15);
+            pelvis.z = tilt;
+            left_hip.z -= tilt;
+            right_hip.z -= tilt;
+            let free_knee = rng.uniform(0.1, 0.4);
+            if tilt > 0.0 {
+                right_knee += free_knee;
+            } else {
+                left_knee += free_knee;
+            }
+        }
+        pose.set_joint(0, pelvis);
+        pose.set_joint(1, left_hip);
+        pose.set_joint(2, right_hip);
+        pose.set_joint(4, Vec3::new(left_knee, 0.0, 0.0));
+        pose.set_joint(5, Vec3::new(right_knee, 0.0, 0.0));
+        // Ankles keep the feet roughly level; feet, neck and head move a little.
+        for (ankle, hip, knee) in [(7, left_hip.x, left_knee), (8, right_hip.x, right_knee)] {
+            let level = -(hip + knee) * 0.4 + rng.uniform(-0.15, 0.15);
+            pose.set_joint(ankle, Vec3::new(level, 0.0, 0.0));
+        }
+        pose.set_joint(
+            12,
+            Vec3::new(
+                rng.uniform(-0.2, 0.25),
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-0.15, 0.15),
+            ),
+        );
+        pose.set_joint(
+            15,
+            Vec3::new(
+                rng.uniform(-0.15, 0.2),
+                rng.uniform(-0.2, 0.2),
+                rng.uniform(-0.1, 0.1),
+            ),
+        );
+        pose
+    }
+}
+
+/// The forearm's twist and the wrist's bend of `side`, within 0.6 of the limits.
+fn draw_forearm(rng: &mut SplitMix64, limits: &JointLimits, pose: &mut Pose, side: Side) {
+    let (elbow, wrist) = match side {
+        Side::Left => (18, 20),
+        Side::Right => (19, 21),
+    };
+    let mut e = pose.joint(elbow);
+    e.x = rng.uniform(-0.4, 0.4);
+    pose.set_joint(elbow, e);
+    let w =
+        Vec3::from_fn(|c, _| rng.uniform(0.6 * limits.min[wrist][c], 0.6 * limits.max[wrist][c]));
+    pose.set_joint(wrist, w);
+}
+
+/// The random stream of pose `index` under `seed`: two SplitMix64 outputs mixed, so streams
+/// of different (seed, index) pairs do not overlap in practice.
+fn stream(seed: u64, index: u64) -> SplitMix64 {
+    let a = SplitMix64::new(seed).next_u64();
+    let b = SplitMix64::new(index ^ 0xD1B5_4A32_D192_ED03).next_u64();
+    SplitMix64::new(a ^ b.rotate_left(23))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use garmatnet_core::Skeleton;
+
+    fn bits(poses: &[Pose]) -> Vec<u64> {
+        poses
+            .iter()
+            .flat_map(Pose::to_vec)
+            .map(f64::to_bits)
+            .collect()
+    }
+
+    fn sampler(seed: u64) -> PoseSampler {
+        PoseSampler::new(PoseSamplerConfig {
+            seed,
+            ..Default::default()
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn poses_are_seeded_extend_and_do_not_depend_on_the_thread_count() {
+        let s = sampler(42);
+        let five = s.poses(5).unwrap();
+        let eight = s.poses(8).unwrap();
+        assert_eq!(bits(&five), bits(&eight[..5]));
+        assert_eq!(bits(&[s.pose(6).unwrap()]), bits(&eight[6..7]));
+        let in_pool = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| sampler(42).poses(8).unwrap())
+        };
+        assert_eq!(bits(&in_pool(1)), bits(&eight));
+        assert_eq!(bits(&in_pool(3)), bits(&eight));
+        let other = sampler(43).poses(8).unwrap();
+        assert!(
+            other
+                .iter()
+                .zip(&eight)
+                .all(|(a, b)| a.max_joint_angle_to(b) > 0.05)
+        );
+        // Poses are independent: neighbours are as far apart as any two.
+        assert!(
+            eight
+                .windows(2)
+                .all(|w| w[0].max_joint_angle_to(&w[1]) > 0.2)
+        );
+    }
+
+    #[test]
+    fn bad_settings_are_typed_errors() {
+        let bad = [
+            PoseSamplerConfig {
+                hanging_fraction: 1.5,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                hanging_fraction: 0.7,
+                raised_fraction: 0.6,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                raised_fraction: Real::NAN,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                max_attempts: 0,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                arm_gap_m: 0.5,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                limits: JointLimits {
+                    min: vec![[0.0; 3]; 3],
+                    max: vec![[0.0; 3]; 3],
+                },
+                ..Default::default()
+            },
+        ];
+        for config in bad {
+            assert!(
+                matches!(PoseSampler::new(config.clone()), Err(Error::Core(_))),
+                "{config:?}"
+            );
+        }
+        // Limits no pose can meet (the left shoulder pinned at the T-pose, so no arm ever
+        // hangs, and the hanging band asked for always): the sampler gives up, typed.
+        let mut limits = JointLimits::everyday();
+        limits.min[16] = [0.0; 3];
+        limits.max[16] = [0.0; 3];
+        let pinned = PoseSampler::new(PoseSamplerConfig {
+            limits,
+            hanging_fraction: 1.0,
+            raised_fraction: 0.0,
+            max_attempts: 3,
+            ..Default::default()
+        })
+        .unwrap();
+        assert!(matches!(
+            pinned.pose(0),
+            Err(Error::PoseSamplingExhausted {
+                index: 0,
+                attempts: 3
+            })
+        ));
+    }
+
+    #[test]
+    fn config_reads_from_partial_json() {
+        let config: PoseSamplerConfig = serde_json::from_str(r#"{"seed": 5}"#).unwrap();
+        assert_eq!(
+            config,
+            PoseSamplerConfig {
+                seed: 5,
+                ..Default::default()
+            }
+        );
+        let text = serde_json::to_string(&config).unwrap();
+        assert_eq!(
+            serde_json::from_str::<PoseSamplerConfig>(&text).unwrap(),
+            config
+        );
+    }
+
+    /// Coverage of 2,000 poses, measured on the posed skeleton (world frame, y up), not on
+    /// the sampler's own parameters.
+    #[test]
+    fn two_thousand_poses_cover_everyday_stances_and_none_self_intersects() {
+        let s = sampler(2024);
+        let poses = s.poses(2000).unwrap();
+        let skeleton = Skeleton::smpl_neutral();
+        let check = SelfIntersection::new(&CapsuleBody::smpl_neutral(), DEFAULT_ARM_GAP).unwrap();
+        let limits = JointLimits::everyday();
+        let (mut low, mut high, mut bent, mut twisted, mut apart) = (0, 0, 0, 0, 0);
+        let (mut forward, mut behind) = (0, 0);
+        for (i, pose) in poses.iter().enumerate() {
+            assert!(
+                check.worst(pose).is_none(),
+                "pose {i}: {:?}",
+                check.worst(pose)
+            );
+            limits.validate(pose, 0.0).unwrap();
+            let world = skeleton.world_transforms(pose);
+            let joints = skeleton.posed_joints(pose);
+            for (shoulder, elbow) in [(16, 18), (17, 19)] {
+                let arm = (joints[elbow] - joints[shoulder]).normalize();
+                let elevation = arm.y.asin().to_degrees();
+                low += usize::from(elevation < -60.0);
+                high += usize::from(elevation > 45.0);
+                bent += usize::from(pose.joint(elbow).norm() > 45f64.to_radians());
+                // In the chest's frame: forward of the shoulder line, or behind it.
+                let local = world[9].rotation.inverse() * arm;
+                forward += usize::from(local.z > 0.5);
+                behind += usize::from(local.z < -0.2);
+            }
+            // The chest's turn about the vertical relative to the pelvis.
+            let relative = world[0].rotation.inverse() * world[9].rotation;
+            let facing = relative * Vec3::z();
+            twisted += usize::from(facing.x.atan2(facing.z).abs() > 0.2);
+            let feet = joints[7] - joints[8];
+            apart += usize::from(feet.x.hypot(feet.z) > 0.4);
+        }
+        let arms = 2.0 * poses.len() as Real;
+        let n = poses.len() as Real;
+        let fractions = [
+            ("upper arm below -60°", low as Real / arms, 0.2, 0.5),
+            ("upper arm above 45°", high as Real / arms, 0.1, 0.3),
+            ("elbow bent past 45°", bent as Real / arms, 0.4, 0.8),
+            ("arm forward", forward as Real / arms, 0.1, 0.5),
+            ("arm behind", behind as Real / arms, 0.02, 0.3),
+            ("torso twisted past 0.2 rad", twisted as Real / n, 0.3, 0.8),
+            ("ankles over 40 cm apart", apart as Real / n, 0.25, 0.8),
+        ];
+        for (what, got, lo, hi) in fractions {
+            println!("{what}: {got:.3}");
+            assert!(
+                (lo..=hi).contains(&got),
+                "{what}: {got:.3} not in {lo}..{hi}"
+            );
+        }
+    }
+}

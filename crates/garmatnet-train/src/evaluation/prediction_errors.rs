@@ -1,0 +1,234 @@
+//! A model's predictions of dataset samples and their per-vertex errors: the numbers behind
+//! evaluation's tables, the figures and the bench harness.
+
+use std::path::Path;
+
+use burn::prelude::*;
+use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, Vec3, decompose};
+use garmatnet_model::{GarMatNetModel, OutputNormalizer};
+
+use crate::data::files::split_path;
+use crate::data::loader::{SampleKey, SampleTruth, TrainingDataset};
+use crate::data::split::Split;
+use crate::error::{Error, Result};
+use crate::evaluation::report::{ErrorStats, PartErrors, spread_mm};
+
+/// Per-vertex errors (metres) of one prediction.
+#[derive(Clone)]
+pub(crate) struct VertexErrors {
+    pub(crate) fitting: Vec<f64>,
+    pub(crate) local: Vec<f64>,
+    pub(crate) whole: Vec<f64>,
+}
+
+impl VertexErrors {
+    pub(crate) fn means_mm(&self) -> PartErrors {
+        let mean = |v: &[f64]| 1e3 * v.iter().sum::<f64>() / v.len().max(1) as f64;
+        PartErrors {
+            fitting_mm: mean(&self.fitting),
+            local_mm: mean(&self.local),
+            whole_mm: mean(&self.whole),
+        }
+    }
+}
+
+/// A prediction: world-frame displacements (metres) per vertex.
+pub(crate) struct Prediction {
+    pub(crate) d_fitting: Vec<Vec3>,
+    pub(crate) d_local: Vec<Vec3>,
+}
+
+/// Another sample's true drape, as the displacements a model would predict (core's
+/// decomposition of it).
+///
+/// # Errors
+/// As [`garmatnet_core::decompose`]: arrays of different lengths or non-finite values.
+pub(crate) fn truth_as_prediction(other: &SampleTruth) -> Result<Prediction> {
+    let parts = decompose(&other.simulated, &other.smoothed, &other.body_points)?;
+    Ok(Prediction {
+        d_fitting: parts.d_fitting,
+        d_local: parts.d_local,
+    })
+}
+
+pub(crate) fn load_model(
+    path: &Path,
+    data: &TrainingDataset,
+    device: &Device,
+) -> Result<GarMatNetModel> {
+    let model = GarMatNetModel::load(path, device)?;
+    model.ensure_template(data.template_hash(), data.vertex_count())?;
+    Ok(model)
+}
+
+/// [`load_model`], for a model compared against another on `split`'s test samples: its own
+/// split (checked as [`Split::read_for_model`] does) must hold out the same samples, or it
+/// would be measured on some of its training data. `what` names it in the error.
+///
+/// # Errors
+/// As [`load_model`] and [`Split::read_for_model`]; [`Error::Split`] for another test set.
+pub(crate) fn load_with_same_test(
+    path: &Path,
+    what: &str,
+    split: &Split,
+    data: &TrainingDataset,
+    device: &Device,
+) -> Result<GarMatNetModel> {
+    let model = load_model(path, data, device)?;
+    let theirs = Split::read_for_model(
+        path,
+        &model.meta.provenance,
+        data.spec(),
+        data.dataset_hash(),
+    )?;
+    if theirs.test != split.test {
+        return Err(Error::Split {
+            path: split_path(path),
+            message: format!(
+                "{what} was trained with another test set than the model it is compared with, \
+                 so some of the compared samples may be its training data; train both with \
+                 the same split settings"
+            ),
+        });
+    }
+    Ok(model)
+}
+
+/// `[B, 72]` and `[B, 6]` input tensors of `keys`.
+fn input_tensors(
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> (Tensor<2>, Tensor<2>) {
+    let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
+    let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
+    for &k in keys {
+        let (p, m) = data.inputs(k);
+        poses.extend(p);
+        materials.extend(m);
+    }
+    let b = keys.len();
+    (
+        Tensor::from_data(TensorData::new(poses, [b, POSE_DIM]), device),
+        Tensor::from_data(TensorData::new(materials, [b, MATERIAL_DIM]), device),
+    )
+}
+
+fn to_f32(t: Tensor<2>) -> Vec<f32> {
+    t.into_data()
+        .try_into_vec_as::<f32>()
+        .unwrap_or_else(|e| panic!("reading a tensor back from the device failed: {e:?}"))
+}
+
+/// Denormalised world-frame displacements of each row of `fitting` / `local` (`[B, 3n]`).
+fn assemble(
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    fitting: &[f32],
+    local: &[f32],
+    norms: (&OutputNormalizer, &OutputNormalizer),
+    frame: DisplacementFrame,
+) -> Vec<Prediction> {
+    let n3 = 3 * data.vertex_count();
+    keys.iter()
+        .enumerate()
+        .map(|(b, &key)| {
+            let transforms = data
+                .skeleton()
+                .skinning_transforms(&data.spec().poses[key.pose]);
+            let anchors = &data.garment().anchors;
+            let field = |raw: &[f32], norm: &OutputNormalizer| -> Vec<Vec3> {
+                let d = norm.denormalize(&raw[b * n3..(b + 1) * n3]);
+                d.chunks_exact(3)
+                    .zip(anchors)
+                    .map(|(c, a)| a.from_frame(&Vec3::new(c[0], c[1], c[2]), frame, &transforms))
+                    .collect()
+            };
+            Prediction {
+                d_fitting: field(fitting, norms.0),
+                d_local: field(local, norms.1),
+            }
+        })
+        .collect()
+}
+
+pub(crate) fn predict_garmatnet(
+    model: &GarMatNetModel,
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> Result<Vec<Prediction>> {
+    let (p, m) = input_tensors(data, keys, device);
+    let fitting = to_f32(model.fitting.forward(p.clone(), m.clone()));
+    let local = to_f32(model.local.forward(p, m));
+    Ok(assemble(
+        data,
+        keys,
+        &fitting,
+        &local,
+        (&model.fitting_norm, &model.local_norm),
+        model.displacement_frame(),
+    ))
+}
+
+pub(crate) fn predict_baseline(
+    m: &crate::training::baseline::BaselineMaterial,
+    data: &TrainingDataset,
+    keys: &[SampleKey],
+    device: &Device,
+) -> Result<Vec<Prediction>> {
+    let (p, _) = input_tensors(data, keys, device);
+    let fitting = to_f32(m.fitting.forward(p.clone()));
+    let local = to_f32(m.local.forward(p));
+    Ok(assemble(
+        data,
+        keys,
+        &fitting,
+        &local,
+        (&m.fitting_norm, &m.local_norm),
+        DisplacementFrame::World,
+    ))
+}
+
+/// Per-vertex errors (metres) of a prediction against the truth.
+pub(crate) fn vertex_errors(truth: &SampleTruth, pred: &Prediction) -> VertexErrors {
+    let n = truth.body_points.len();
+    let mut e = VertexErrors {
+        fitting: Vec::with_capacity(n),
+        local: Vec::with_capacity(n),
+        whole: Vec::with_capacity(n),
+    };
+    for i in 0..n {
+        let body = truth.body_points[i];
+        let smooth = body + pred.d_fitting[i];
+        let garment = body + (pred.d_fitting[i] + pred.d_local[i]);
+        let true_local = truth.simulated[i] - truth.smoothed[i];
+        e.fitting.push((smooth - truth.smoothed[i]).norm());
+        e.local.push((pred.d_local[i] - true_local).norm());
+        e.whole.push((garment - truth.simulated[i]).norm());
+    }
+    e
+}
+
+pub(crate) fn error_stats<'a>(errors: impl Iterator<Item = &'a VertexErrors>) -> ErrorStats {
+    let (mut fitting, mut local, mut whole) = (0.0, 0.0, Vec::new());
+    let mut samples = 0;
+    let mut vertices = 0usize;
+    for e in errors {
+        samples += 1;
+        vertices += e.whole.len();
+        fitting += e.fitting.iter().sum::<f64>();
+        local += e.local.iter().sum::<f64>();
+        whole.extend_from_slice(&e.whole);
+    }
+    let (whole_mm, whole_p95_mm, whole_max_mm) = spread_mm(&mut whole);
+    let v = vertices.max(1) as f64;
+    ErrorStats {
+        fitting_mm: 1e3 * fitting / v,
+        local_mm: 1e3 * local / v,
+        whole_mm,
+        whole_max_mm,
+        whole_p95_mm,
+        samples,
+    }
+}

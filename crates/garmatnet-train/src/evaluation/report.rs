@@ -1,0 +1,722 @@
+//! The evaluation report: `report.json` (machine-readable) and `report.md` (tables), all
+//! errors in millimetres.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use garmatnet_model::OutsideComponent;
+use serde::{Deserialize, Serialize};
+
+use crate::data::files::make_readable;
+use crate::error::{Error, Result};
+
+/// Mean per-vertex Euclidean errors of one part of the pipeline (millimetres).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PartErrors {
+    /// |predicted smooth garment − true smooth garment| (generally-fitting net).
+    pub fitting_mm: f64,
+    /// |predicted D_local − true D_local| (locally-detailed net).
+    pub local_mm: f64,
+    /// |predicted garment − simulated garment| (whole pipeline).
+    pub whole_mm: f64,
+}
+
+/// Errors over a set of test samples (the paper's Table 2 plus spread).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ErrorStats {
+    /// Mean per-vertex error of the generally-fitting net (mm).
+    pub fitting_mm: f64,
+    /// Mean per-vertex error of the locally-detailed net (mm).
+    pub local_mm: f64,
+    /// Mean per-vertex error of the whole pipeline (mm).
+    pub whole_mm: f64,
+    /// Largest per-vertex whole error (mm).
+    pub whole_max_mm: f64,
+    /// 95th percentile of per-vertex whole errors (mm).
+    pub whole_p95_mm: f64,
+    /// Samples evaluated.
+    pub samples: usize,
+}
+
+/// One test sample's errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SampleErrors {
+    /// The material's name.
+    pub material: String,
+    /// The pose index.
+    pub pose: usize,
+    /// The pose's frame in its source sequence.
+    pub frame: usize,
+    /// GarMatNet's errors.
+    pub garmatnet: PartErrors,
+    /// The baseline's errors, when a baseline for this material was given.
+    pub baseline: Option<PartErrors>,
+}
+
+/// Body penetration of GarMatNet's predictions before and after the push-out post-process.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PenetrationStats {
+    /// The push-out clearance ε (mm).
+    pub epsilon_mm: f64,
+    /// Mean fraction of garment vertices inside the body before push-out.
+    pub inside_fraction_before: f64,
+    /// The same after push-out.
+    pub inside_fraction_after: f64,
+    /// Deepest penetration before push-out (mm).
+    pub max_depth_before_mm: f64,
+    /// Deepest penetration after push-out (mm).
+    pub max_depth_after_mm: f64,
+    /// Mean per-vertex whole error after push-out (mm).
+    pub whole_mm_after: f64,
+}
+
+/// How physical GarMatNet's raw predictions are (before the push-out), measured with the solver's
+/// own energy and springs.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PhysicalQuality {
+    /// Samples measured.
+    pub samples: usize,
+    /// The sound stretch `dataset check` flags past (strain, dimensionless).
+    pub sound_stretch: f64,
+    /// Mean over samples of the largest spring stretch (strain).
+    pub mean_max_stretch: f64,
+    /// The largest spring stretch of any sample (strain).
+    pub worst_stretch: f64,
+    /// Samples whose largest stretch is past the sound stretch.
+    pub past_sound_stretch: usize,
+    /// The ground truth's mean over samples of the largest spring stretch, for reference.
+    pub truth_mean_max_stretch: f64,
+    /// Mean over samples of the drape energy (springs, gravity, contact; no friction) above
+    /// the ground truth's, over the garment's weight (mm: the height the garment would have
+    /// to fall to release it). Friction holds the ground truth a little above its
+    /// frictionless minimum, so a prediction can come out slightly below it.
+    pub mean_energy_above_truth_mm: f64,
+    /// The median of the same.
+    pub median_energy_above_truth_mm: f64,
+    /// Median over samples of the force residual, the solver's stopping measure: RMS over
+    /// vertices of the net force (springs, gravity, contact) over the vertex's weight. The
+    /// solver stops below its tolerance (RMS 0.001, largest 0.05 by default), friction
+    /// included. A median, because a few vertices deep in the contact margin dominate a
+    /// sample's RMS.
+    #[serde(default)]
+    pub median_residual: f64,
+    /// The ground truth's median of the same, for reference: above the solver's tolerance by
+    /// what friction holds (friction is not part of the energy), by the final projection
+    /// out of the body and by rounding the stored drape to f32 against the stiff springs
+    /// and contact, so compare predictions with this row, not with the tolerance.
+    #[serde(default)]
+    pub truth_median_residual: f64,
+    /// Mean over samples of the deepest point inside the body (mm).
+    #[serde(default)]
+    pub mean_depth_mm: f64,
+    /// The deepest point inside the body of any sample (mm).
+    #[serde(default)]
+    pub worst_depth_mm: f64,
+    /// The ground truth's deepest point inside the body of any sample (mm), for reference.
+    #[serde(default)]
+    pub truth_worst_depth_mm: f64,
+    /// The solver converging from the prediction, on the samples `eval --newton-samples`
+    /// chose; `None` when none was asked for.
+    #[serde(default)]
+    pub newton: Option<NewtonFromPrediction>,
+}
+
+/// The solver run from predictions to its residual criterion: how far from an equilibrium a
+/// prediction lies, counted in Newton iterations, beside what the canonical protocol needed.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct NewtonFromPrediction {
+    /// Samples polished (spread evenly over the set).
+    pub samples: usize,
+    /// Mean Newton iterations from the prediction (pushed out of the body) to convergence
+    /// or the iteration cap.
+    pub mean_iterations: f64,
+    /// Samples that met the residual criterion.
+    pub converged: usize,
+    /// The ground truth's mean iterations on the same samples: those of the canonical
+    /// protocol's final converge at the target pose (after its walk from the rest pose).
+    pub truth_mean_iterations: f64,
+    /// Mean per-vertex distance of the polished drape to the ground truth (mm). Friction
+    /// resists slip from where the solver starts, so the polish settles at an equilibrium
+    /// near the prediction: this is how far that one lies from the protocol's.
+    pub mean_distance_to_truth_mm: f64,
+}
+
+/// Inference speed of GarMatNet (both nets, garment assembly included).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Timing {
+    /// The device.
+    pub device: String,
+    /// Milliseconds per frame at batch size 1 (median of the repeats).
+    pub batch1_ms_per_frame: f64,
+    /// Milliseconds per frame in one batched call.
+    pub batched_ms_per_frame: f64,
+    /// The batch size of the batched timing.
+    pub batch_size: usize,
+}
+
+/// Model sizes on disk (MB = 10^6 bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ModelSizes {
+    /// The GarMatNet model file.
+    pub garmatnet_mb: f64,
+    /// The baseline directory (all materials), when given.
+    pub baseline_mb: Option<f64>,
+}
+
+/// Which displacement frame did better when two models were evaluated on the same split.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameComparison {
+    /// `(frame, whole error in mm)` of the primary model.
+    pub primary: (String, f64),
+    /// `(frame, whole error in mm)` of the other model.
+    pub other: (String, f64),
+    /// The frame with the smaller whole error.
+    pub winner: String,
+}
+
+/// GarMatNet's error on each part of the data; `None` for an empty part.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TestParts {
+    /// Target (unseen) materials at the training poses: fabric generalisation alone.
+    pub unseen_material: Option<ErrorStats>,
+    /// Training materials at the held-out poses: pose generalisation alone.
+    pub unseen_pose: Option<ErrorStats>,
+    /// The development set: with the paper's random split, samples of training fabrics at
+    /// training poses that were not trained on; with `dev_materials`, those fabrics' samples.
+    pub development: Option<ErrorStats>,
+    /// The fabrics held out as the development set (`train --dev-materials`); empty for the
+    /// paper's random development fraction.
+    #[serde(default)]
+    pub dev_materials: Vec<String>,
+    /// The development set's frames when it holds out poses (`train --dev-frames`): their
+    /// offset and the held-out period, e.g. `(5, 10)`; `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dev_frames: Option<(usize, usize)>,
+}
+
+/// GarMatNet's error on a whole held-out dataset of its own (`eval --held-out NAME=DIR`):
+/// poses the model never came near, such as the everyday suite or a motion of another seed,
+/// draped by the canonical protocol.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutSet {
+    /// The set's name, e.g. `everyday` or `held-out motion`.
+    pub name: String,
+    /// The dataset's directory, as given.
+    pub dir: String,
+    /// Every sample of the set.
+    pub all: ErrorStats,
+    /// Its samples of fabrics the model trained on; `None` if it has none.
+    pub training_fabrics: Option<ErrorStats>,
+    /// Its samples of fabrics the model never saw; `None` if it has none.
+    pub unseen_fabrics: Option<ErrorStats>,
+    /// How physical the predictions on it are.
+    #[serde(default)]
+    pub physical_quality: Option<PhysicalQuality>,
+}
+
+/// A non-learned reference on the Table 2 samples: the true drape, at the same test pose, of
+/// a fabric the model trained on. It knows each held-out pose's drapes (no model does), so it
+/// is a yardstick of how much fabric alone changes the drape, not a competitor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FabricLookup {
+    /// The training fabric nearest in the model's normalised material input ω.
+    pub nearest_material: ErrorStats,
+    /// Per target material, the training fabric nearest to it.
+    pub nearest_to: Vec<(String, String)>,
+    /// Per sample, the training fabric whose drape is closest to the truth (an oracle: the
+    /// best any method that picks one training fabric's drape can do).
+    pub best_material: ErrorStats,
+}
+
+/// GarMatNet's error over one material's test samples: every pose of a test material (a
+/// fabric the model never trained on), the held-out poses of a training material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialErrors {
+    /// The material's name.
+    pub material: String,
+    /// Whether it is a test material, i.e. the model never trained on it.
+    pub unseen: bool,
+    /// The error over its test samples.
+    pub garmatnet: ErrorStats,
+    /// For a test material, the training fabric nearest to it in normalised ω (absent for
+    /// training materials, and in reports written before it was recorded): the model's error
+    /// on a fabric it never saw grows with that distance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_training: Option<NearestTraining>,
+}
+
+/// The training fabric nearest to a test material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NearestTraining {
+    /// The training fabric's name.
+    pub material: String,
+    /// Its Euclidean distance to the test material in normalised ω.
+    pub distance: f64,
+}
+
+/// Where a test material lies relative to the materials the model trained on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialSupport {
+    /// The test material.
+    pub material: String,
+    /// Its components outside the training materials' per-component range (normalised ω),
+    /// empty when it lies inside: there the model interpolates, elsewhere it extrapolates.
+    pub outside: Vec<OutsideComponent>,
+}
+
+/// Everything [`crate::evaluate`] measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// The dataset fingerprint.
+    pub dataset_hash: String,
+    /// The model's displacement frame.
+    pub displacement_frame: String,
+    /// The target (unseen) materials.
+    pub test_materials: Vec<String>,
+    /// The number of held-out poses.
+    pub held_out_poses: usize,
+    /// Which frames were held out (e.g. "every 10th frame").
+    #[serde(default)]
+    pub held_out_rule: String,
+    /// GarMatNet on the comparison set: target materials × held-out poses (Table 2).
+    pub garmatnet: ErrorStats,
+    /// The baseline on the same samples (Table 2), when given.
+    pub baseline: Option<ErrorStats>,
+    /// GarMatNet on the whole test set (also every material at the held-out poses).
+    pub garmatnet_all_test: ErrorStats,
+    /// GarMatNet on the parts of the data, to tell pose from fabric generalisation (absent
+    /// from reports written before it existed).
+    #[serde(default)]
+    pub garmatnet_by_part: Option<TestParts>,
+    /// The training fabrics' own drapes as a reference on the Table 2 samples (absent from
+    /// reports written before it existed, and when no training fabric has the held-out
+    /// poses).
+    #[serde(default)]
+    pub fabric_lookup: Option<FabricLookup>,
+    /// Each test material against the training materials' range (absent from reports
+    /// written before it existed).
+    #[serde(default)]
+    pub material_support: Vec<MaterialSupport>,
+    /// Per (material, pose) errors on the comparison set (Figs. 7–8).
+    pub per_sample: Vec<SampleErrors>,
+    /// GarMatNet per material over the whole test set, in the dataset's material order
+    /// (absent from reports written before it existed).
+    #[serde(default)]
+    pub per_material: Vec<MaterialErrors>,
+    /// Push-out statistics over the whole test set.
+    pub penetration: PenetrationStats,
+    /// The physical quality of the pushed-out predictions over the whole test set (absent
+    /// from reports written before it existed).
+    #[serde(default)]
+    pub physical_quality: Option<PhysicalQuality>,
+    /// Inference speed.
+    pub timing: Timing,
+    /// Sizes on disk.
+    pub sizes: ModelSizes,
+    /// World vs canonical frame, when a second model was given.
+    pub frame_comparison: Option<FrameComparison>,
+    /// The error on each held-out dataset given to `eval --held-out`, in the order given.
+    #[serde(default)]
+    pub held_out_sets: Vec<HeldOutSet>,
+    /// Files written next to the report (plots, heat maps, PLY), relative to it.
+    pub files: Vec<String>,
+}
+
+impl Report {
+    /// Writes `report.json` and `report.md` into `out_dir`, atomically.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (I/O) if a file cannot be written.
+    pub fn write(&self, out_dir: &Path) -> Result<()> {
+        let json = serde_json::to_vec_pretty(self)
+            .map_err(|e| Error::InvalidConfig(format!("cannot encode the report: {e}")))?;
+        garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
+        garmatnet_core::write_bytes_atomic(
+            out_dir.join("report.md"),
+            self.to_markdown().as_bytes(),
+        )?;
+        for f in self
+            .files
+            .iter()
+            .map(String::as_str)
+            .chain(["report.json", "report.md"])
+        {
+            make_readable(&out_dir.join(f));
+        }
+        Ok(())
+    }
+
+    /// The report as Markdown tables.
+    #[must_use]
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# GarMatNet evaluation\n");
+        let _ = writeln!(
+            s,
+            "Dataset `{}`, displacement frame `{}`, test materials: {}; {} held-out poses \
+             ({}).\n",
+            self.dataset_hash,
+            self.displacement_frame,
+            if self.test_materials.is_empty() {
+                "none (every fabric trained on)".to_owned()
+            } else {
+                self.test_materials.join(", ")
+            },
+            self.held_out_poses,
+            self.held_out_rule
+        );
+        let _ = writeln!(
+            s,
+            "## Mean per-vertex error (mm), {}\n",
+            if self.test_materials.is_empty() {
+                "every fabric × held-out poses"
+            } else {
+                "target materials × held-out poses (Table 2)"
+            }
+        );
+        let _ = writeln!(
+            s,
+            "| Method | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+        error_row(&mut s, "GarMatNet", &self.garmatnet);
+        if let Some(b) = &self.baseline {
+            error_row(&mut s, "Baseline (TailorNet-style)", b);
+        }
+        // Without target materials the comparison set is the whole test set (and its
+        // unseen-pose part): the same numbers are not repeated.
+        let repeats = |e: &ErrorStats| {
+            e.samples == self.garmatnet.samples
+                && e.whole_mm.to_bits() == self.garmatnet.whole_mm.to_bits()
+        };
+        if !repeats(&self.garmatnet_all_test) {
+            error_row(
+                &mut s,
+                "GarMatNet, whole test set",
+                &self.garmatnet_all_test,
+            );
+        }
+        if let Some(parts) = &self.garmatnet_by_part {
+            let dev_name = if let Some((offset, every)) = parts.dev_frames {
+                format!(
+                    "GarMatNet, development set (training fabrics at unseen poses: frames \
+                     {offset} mod {every})"
+                )
+            } else if parts.dev_materials.is_empty() {
+                "GarMatNet, development set (seen fabric and pose)".to_owned()
+            } else {
+                format!(
+                    "GarMatNet, development set (unseen fabrics {} at training poses)",
+                    parts.dev_materials.join(", ")
+                )
+            };
+            for (name, part) in [
+                (
+                    "GarMatNet, unseen fabric at training poses",
+                    &parts.unseen_material,
+                ),
+                (
+                    "GarMatNet, training fabrics at unseen poses",
+                    &parts.unseen_pose,
+                ),
+                (dev_name.as_str(), &parts.development),
+            ] {
+                if let Some(e) = part.as_ref().filter(|e| !repeats(e)) {
+                    error_row(&mut s, name, e);
+                }
+            }
+        }
+        for set in &self.held_out_sets {
+            for (part, stats) in [
+                ("", Some(&set.all)),
+                (", training fabrics", set.training_fabrics.as_ref()),
+                (", unseen fabrics", set.unseen_fabrics.as_ref()),
+            ] {
+                if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples) {
+                    error_row(&mut s, &format!("GarMatNet, {}{part}", set.name), e);
+                }
+            }
+        }
+        if let Some(f) = &self.fabric_lookup {
+            let nearest: Vec<String> = f
+                .nearest_to
+                .iter()
+                .map(|(target, near)| format!("{target} → {near}"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "\nReference rows, not predictions: the true drape at the same held-out pose of a \
+                 fabric the model trained on (nearest in ω: {}; best: the closest of them, \
+                 chosen by the truth).\n",
+                nearest.join(", ")
+            );
+            let _ = writeln!(
+                s,
+                "| Reference | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+            );
+            let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+            error_row(
+                &mut s,
+                "Nearest training fabric in ω, true drape",
+                &f.nearest_material,
+            );
+            error_row(
+                &mut s,
+                "Best training fabric, true drape (oracle)",
+                &f.best_material,
+            );
+        }
+        if !self.material_support.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nTest materials against the training materials' range of normalised ω: \
+                 inside it the model interpolates, outside it extrapolates.\n"
+            );
+            let _ = writeln!(s, "| Material | Outside the training range |");
+            let _ = writeln!(s, "|---|---|");
+            for m in &self.material_support {
+                let outside = if m.outside.is_empty() {
+                    "inside".to_owned()
+                } else {
+                    m.outside
+                        .iter()
+                        .map(ToString::to_string)
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                };
+                let _ = writeln!(s, "| {} | {outside} |", m.material);
+            }
+        }
+        per_material_table(&mut s, &self.per_sample);
+        test_set_material_table(&mut s, &self.per_material);
+        let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");
+        let _ = writeln!(s, "| Material | Pose | Frame | GarMatNet | Baseline |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        for r in &self.per_sample {
+            let b = r
+                .baseline
+                .map_or_else(|| "–".to_owned(), |b| format!("{:.2}", b.whole_mm));
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.2} | {b} |",
+                r.material, r.pose, r.frame, r.garmatnet.whole_mm
+            );
+        }
+        let p = &self.penetration;
+        let _ = writeln!(
+            s,
+            "\n## Body penetration (push-out ε = {:.1} mm)\n",
+            p.epsilon_mm
+        );
+        let _ = writeln!(s, "| | Before | After |\n|---|---:|---:|");
+        let _ = writeln!(
+            s,
+            "| Vertices inside the body | {:.2} % | {:.2} % |",
+            100.0 * p.inside_fraction_before,
+            100.0 * p.inside_fraction_after
+        );
+        let _ = writeln!(
+            s,
+            "| Deepest penetration (mm) | {:.2} | {:.2} |",
+            p.max_depth_before_mm, p.max_depth_after_mm
+        );
+        let _ = writeln!(
+            s,
+            "| Whole error (mm) | {:.2} | {:.2} |",
+            self.garmatnet_all_test.whole_mm, p.whole_mm_after
+        );
+        if let Some(q) = &self.physical_quality {
+            let _ = writeln!(
+                s,
+                "\n## Physical quality (raw predictions, before push-out)\n"
+            );
+            physical_quality_table(&mut s, "the test set", q);
+        }
+        for set in &self.held_out_sets {
+            if let Some(q) = &set.physical_quality {
+                physical_quality_table(&mut s, &set.name, q);
+            }
+        }
+        let t = &self.timing;
+        let _ = writeln!(s, "\n## Speed and size\n");
+        let _ = writeln!(s, "| | Value |\n|---|---:|");
+        let _ = writeln!(s, "| Device | {} |", t.device);
+        let _ = writeln!(s, "| ms/frame, batch 1 | {:.2} |", t.batch1_ms_per_frame);
+        let _ = writeln!(
+            s,
+            "| ms/frame, batch {} | {:.3} |",
+            t.batch_size, t.batched_ms_per_frame
+        );
+        let _ = writeln!(
+            s,
+            "| GarMatNet model (MB) | {:.2} |",
+            self.sizes.garmatnet_mb
+        );
+        if let Some(b) = self.sizes.baseline_mb {
+            let _ = writeln!(s, "| Baseline, all materials (MB) | {b:.2} |");
+        }
+        if let Some(c) = &self.frame_comparison {
+            let _ = writeln!(s, "\n## Displacement frame\n");
+            let _ = writeln!(s, "| Frame | Whole error (mm) |\n|---|---:|");
+            let _ = writeln!(s, "| {} | {:.2} |", c.primary.0, c.primary.1);
+            let _ = writeln!(s, "| {} | {:.2} |", c.other.0, c.other.1);
+            let _ = writeln!(s, "\nWinner: **{}**.", c.winner);
+        }
+        if !self.files.is_empty() {
+            let _ = writeln!(s, "\n## Figures\n");
+            for f in &self.files {
+                if f.ends_with(".png") {
+                    let _ = writeln!(s, "![{f}]({f})");
+                } else {
+                    let _ = writeln!(s, "- [{f}]({f})");
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Mean whole-pipeline error per material over its samples in `rows` (GarMatNet, and the
+/// baseline where it has every sample of that material), best first.
+fn per_material_table(s: &mut String, rows: &[SampleErrors]) {
+    let mut materials: Vec<(&str, Vec<&SampleErrors>)> = Vec::new();
+    for r in rows {
+        match materials.iter_mut().find(|(m, _)| *m == r.material) {
+            Some((_, list)) => list.push(r),
+            None => materials.push((&r.material, vec![r])),
+        }
+    }
+    if materials.len() < 2 {
+        return;
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let mut table: Vec<(&str, usize, f64, Option<f64>)> = materials
+        .iter()
+        .map(|(m, list)| {
+            let garmatnet: Vec<f64> = list.iter().map(|r| r.garmatnet.whole_mm).collect();
+            let baseline: Option<Vec<f64>> = list
+                .iter()
+                .map(|r| r.baseline.map(|b| b.whole_mm))
+                .collect();
+            (*m, list.len(), mean(&garmatnet), baseline.map(|b| mean(&b)))
+        })
+        .collect();
+    table.sort_by(|a, b| a.2.total_cmp(&b.2));
+    let _ = writeln!(
+        s,
+        "\n## Per material (whole pipeline, mean over its samples below, mm)\n"
+    );
+    let _ = writeln!(s, "| Material | Samples | GarMatNet | Baseline |");
+    let _ = writeln!(s, "|---|---:|---:|---:|");
+    for (m, n, g, b) in table {
+        let b = b.map_or_else(|| "–".to_owned(), |b| format!("{b:.2}"));
+        let _ = writeln!(s, "| {m} | {n} | {g:.2} | {b} |");
+    }
+}
+
+/// GarMatNet's error per material over the whole test set, where it has more than the
+/// comparison set (with no unseen material the two are the same, and the table above has it).
+fn test_set_material_table(s: &mut String, rows: &[MaterialErrors]) {
+    if rows.iter().all(|r| r.unseen) || rows.iter().all(|r| !r.unseen) {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## Per material, whole test set (GarMatNet, mm): a fabric it never trained on at \
+         every pose, a training fabric at the held-out poses\n"
+    );
+    let _ = writeln!(
+        s,
+        "| Material | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let name = match (&r.nearest_training, r.unseen) {
+            (Some(n), _) => format!(
+                "{} (never trained on; nearest: {}, {:.3} away)",
+                r.material, n.material, n.distance
+            ),
+            (None, true) => format!("{} (never trained on)", r.material),
+            (None, false) => r.material.clone(),
+        };
+        error_row(s, &name, &r.garmatnet);
+    }
+}
+
+/// One row of an error table: samples, the three parts and the spread of the whole error.
+fn error_row(s: &mut String, name: &str, e: &ErrorStats) {
+    let _ = writeln!(
+        s,
+        "| {name} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+        e.samples, e.fitting_mm, e.local_mm, e.whole_mm, e.whole_p95_mm, e.whole_max_mm
+    );
+}
+
+/// Mean, max and 95th percentile of per-vertex errors (metres in, millimetres out).
+pub(crate) fn spread_mm(errors: &mut [f64]) -> (f64, f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0, 0.0);
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    errors.sort_by(f64::total_cmp);
+    let p95 = errors[((errors.len() - 1) as f64 * 0.95).round() as usize];
+    let max = errors[errors.len() - 1];
+    (mean * 1e3, p95 * 1e3, max * 1e3)
+}
+
+/// One set's physical-quality table, prediction beside the ground truth.
+fn physical_quality_table(s: &mut String, name: &str, q: &PhysicalQuality) {
+    let _ = writeln!(s, "\n{name}, {} samples:\n", q.samples);
+    let _ = writeln!(s, "| | Prediction | Ground truth |\n|---|---:|---:|");
+    let _ = writeln!(
+        s,
+        "| Force residual, median (RMS force over weight; friction, the final projection and f32 storage move the truth's) | {:.2} | {:.2} |",
+        q.median_residual, q.truth_median_residual
+    );
+    let _ = writeln!(
+        s,
+        "| Deepest penetration (mm), mean / worst | {:.2} / {:.2} | worst {:.2} |",
+        q.mean_depth_mm, q.worst_depth_mm, q.truth_worst_depth_mm
+    );
+    let _ = writeln!(
+        s,
+        "| Mean largest spring stretch | {:.3} | {:.3} |",
+        q.mean_max_stretch, q.truth_mean_max_stretch
+    );
+    let _ = writeln!(
+        s,
+        "| Samples past the sound stretch ({}) | {} (worst {:.3}) | |",
+        q.sound_stretch, q.past_sound_stretch, q.worst_stretch
+    );
+    let _ = writeln!(
+        s,
+        "| Energy above the ground truth per unit weight (mm), mean / median | {:.2} / {:.2} | 0 |",
+        q.mean_energy_above_truth_mm, q.median_energy_above_truth_mm
+    );
+    if let Some(n) = &q.newton {
+        let _ = writeln!(
+            s,
+            "| Newton iterations to converge ({} samples; converged) | {:.0} ({}) | {:.0} (the protocol's final converge) |",
+            n.samples, n.mean_iterations, n.converged, n.truth_mean_iterations
+        );
+        let _ = writeln!(
+            s,
+            "| Polished drape's distance to the ground truth (mm) | {:.2} | 0 |",
+            n.mean_distance_to_truth_mm
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_of_known_values() {
+        let mut v: Vec<f64> = (1..=100).map(|i| f64::from(i) * 1e-3).collect();
+        let (mean, p95, max) = spread_mm(&mut v);
+        approx::assert_relative_eq!(mean, 50.5, epsilon = 1e-9);
+        approx::assert_relative_eq!(max, 100.0, epsilon = 1e-9);
+        assert!((94.0..=96.0).contains(&p95), "{p95}");
+    }
+}
