@@ -9,7 +9,7 @@ use garmatnet::core::{
     DrapeSequence, DrapeView, OutputFormat, compare_path, comparison_image, resolve_material,
     vertex_errors_mm,
 };
-use garmatnet::core::{JointLimits, read_pose_frame_rate};
+use garmatnet::core::{JointLimits, MATERIAL_DIM, Real, parse_omega, read_pose_frame_rate};
 use garmatnet::model::{
     Detail, FAR_FROM_TRAINING, FabricCalibration, Predictor, PushOut, SEQUENCE_BATCH,
     default_model_path, select_device,
@@ -90,12 +90,13 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             (material, Fabric::Calibrated(Box::new(calibration)))
         }
         None => {
-            let material = resolve_material(
-                args.material.as_deref(),
-                args.omega.as_deref(),
-                "Cotton Poplin",
-            )?;
-            (material, Fabric::Omega(material))
+            // ω given goes to the predictor as written, not through physical units.
+            let omega = match args.omega.as_deref() {
+                Some(text) => parse_omega(text)?,
+                None => resolve_material(args.material.as_deref(), None, "Cotton Poplin")?
+                    .to_normalized(),
+            };
+            (Material::from_normalized(omega)?, Fabric::Omega(omega))
         }
     };
     if let Some(fps) = args.fps
@@ -281,7 +282,8 @@ const DEFAULT_FPS: f64 = 30.0;
 
 /// What the nets drape: a fabric by its ω, or a calibrated fabric (`--calibration`).
 enum Fabric {
-    Omega(Material),
+    /// Normalised ω.
+    Omega([Real; MATERIAL_DIM]),
     Calibrated(Box<FabricCalibration>),
 }
 
@@ -295,7 +297,7 @@ impl Fabric {
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
         Ok(match self {
-            Fabric::Omega(material) => predictor.predict_sequence(poses, material, detail)?,
+            Fabric::Omega(omega) => predictor.predict_sequence_normalized(poses, omega, detail)?,
             Fabric::Calibrated(calibration) => {
                 predictor.predict_calibrated_sequence(poses, calibration, detail)?
             }

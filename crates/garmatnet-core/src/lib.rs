@@ -41,12 +41,13 @@ pub use decompose::laplacian::{
     CORNER_ANGLE_DEGREES, LaplacianSmoother, LaplacianWeights, SmoothingSettings, VertexRole,
 };
 pub use error::{Error, Result};
+pub use garment::openings::{BoundaryLoop, Opening};
 pub use garment::pattern::Panel;
+pub use garment::resolution::Resolution;
 pub use garment::spring::{Spring, SpringKind};
 pub use garment::style::GarmentStyle;
 pub use garment::template::{
-    BoundaryLoop, FITTED_MIN_REST_FRACTION, Garment, MIN_BODY_CLEARANCE, Opening, Resolution,
-    TemplateInfo,
+    FITTED_MIN_REST_FRACTION, Garment, MAX_FIT_PUSH, MIN_BODY_CLEARANCE, TemplateInfo,
 };
 pub use io::drape_output::{
     DrapeSequence, DrapeView, OutputFormat, SIMULATED_COLOR, compare_path, comparison_image,
@@ -58,7 +59,7 @@ pub use io::pose_file::{read_pose_frame_rate, read_poses, write_poses_json};
 pub use io::{npy_guard, render};
 pub use material::bounds::{COMPONENT_NAMES, COMPONENT_UNITS, MATERIAL_DIM, MaterialBounds};
 pub use material::presets::{
-    MaterialUnits, PAPER_TEST_MATERIALS, Preset, find_preset, preset_names, presets,
+    MaterialUnits, PAPER_TEST_MATERIALS, Preset, find_preset, parse_omega, preset_names, presets,
     resolve_material,
 };
 pub use material::space::Material;

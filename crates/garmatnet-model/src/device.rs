@@ -18,16 +18,17 @@ use crate::error::Result;
 /// # Errors
 /// [`crate::Error::DeviceUnavailable`] for `"gpu"` in a build without the `wgpu` feature or
 /// on a machine where wgpu finds no adapter (the message says what to install);
-/// [`crate::Error::Core`] (invalid argument) for any other name.
+/// [`crate::Error::UnknownName`] for any other name.
 pub fn select_device(name: &str) -> Result<Device> {
     match name.trim().to_ascii_lowercase().as_str() {
         "cpu" => Ok(Device::flex()),
         "gpu" => gpu_device(),
         "auto" => Ok(auto_device()),
-        other => Err(garmatnet_core::Error::InvalidArgument(format!(
-            "unknown device `{other}`; use `cpu`, `gpu` or `auto`"
-        ))
-        .into()),
+        other => Err(crate::error::Error::UnknownName {
+            kind: "device",
+            name: other.to_owned(),
+            options: "`cpu`, `gpu` or `auto`",
+        }),
     }
 }
 
@@ -85,6 +86,10 @@ mod tests {
         assert!(select_device(" CPU ").is_ok());
         assert!(select_device("auto").is_ok());
         let err = select_device("tpu").unwrap_err();
+        assert!(
+            matches!(&err, crate::Error::UnknownName { kind: "device", name, .. } if name == "tpu"),
+            "{err}"
+        );
         assert!(err.to_string().contains("use `cpu`, `gpu` or `auto`"));
     }
 

@@ -122,6 +122,63 @@ pub enum Error {
     /// A scene operation named a character that is not in the scene. Insert it first.
     #[error("no character with id {0} in the scene; insert it with Scene::insert first")]
     UnknownCharacter(u64),
+
+    /// A name is not one of its kind's options (a device other than `cpu`, `gpu` or `auto`,
+    /// a detail level other than `full` or `smooth`). Use one of those listed.
+    #[error("unknown {kind} `{name}`; use {options}")]
+    UnknownName {
+        /// The kind of name, e.g. `"device"`.
+        kind: &'static str,
+        /// The name that was given.
+        name: String,
+        /// The names accepted, e.g. `` "`cpu`, `gpu` or `auto`" ``.
+        options: &'static str,
+    },
+
+    /// An input that must hold something is empty (no samples to fit a normaliser on, no
+    /// reference drape or a blank name for a calibration). Give it what the message says it
+    /// needs.
+    #[error("{what} needs {needs}")]
+    EmptyInput {
+        /// What was asked for, e.g. `"a calibration"`.
+        what: &'static str,
+        /// What it needs, e.g. `"at least one reference drape"`.
+        needs: &'static str,
+    },
+
+    /// A garment vertex's body anchor has no skinning weights, a joint outside the skeleton,
+    /// or a non-finite rest point or weight. Take the anchors from the garment template
+    /// (`Garment::anchors`) rather than building them by hand.
+    #[error(
+        "body anchor {anchor} is unusable: it needs a finite rest point and at least one \
+         (joint < {joints}, finite weight) pair"
+    )]
+    InvalidAnchor {
+        /// The garment vertex whose anchor is unusable.
+        anchor: usize,
+        /// The skeleton's joint count, which every joint index must stay below.
+        joints: usize,
+    },
+
+    /// One pose of a sequence is unusable (NaN, infinity, a rotation too large); the
+    /// sequence was refused before any prediction. Fix or drop that pose.
+    #[error("pose {index} of the sequence: {source}")]
+    InvalidPose {
+        /// The pose's 0-based index in the sequence given.
+        index: usize,
+        /// What is wrong with it.
+        source: garmatnet_core::Error,
+    },
+
+    /// A value could not be written as JSON. This is a bug in garmatnet: please report it
+    /// with the command that failed.
+    #[error("could not serialise {what} as JSON: {source}")]
+    Serialize {
+        /// What was being written, e.g. `"a fabric calibration"`.
+        what: &'static str,
+        /// serde_json's reason.
+        source: serde_json::Error,
+    },
 }
 
 /// Shorthand for results in `garmatnet-model`.

@@ -1,5 +1,7 @@
 //! The simulation crate's error type: every variant says what went wrong and what to fix.
 
+use std::path::PathBuf;
+
 use garmatnet_core::Real;
 
 /// Everything that can go wrong in `garmatnet-sim`.
@@ -111,6 +113,133 @@ pub enum Error {
         /// The range as written.
         text: String,
     },
+    /// A dataset spec (the one a run asks for, or one read from a `manifest.json`) is not
+    /// self-consistent: `field` says which part, `entry` which pose or material when it is one
+    /// of them, and `problem` what is wrong. Build the spec with [`crate::dataset_spec`]; for a
+    /// manifest, it was edited or written by other code (or another version of garmatnet):
+    /// restore it, or regenerate the dataset.
+    #[error("inconsistent dataset spec: {problem}")]
+    InvalidSpec {
+        /// The part of the spec that is wrong.
+        field: SpecField,
+        /// The index of the pose or material at fault, when there is one.
+        entry: Option<usize>,
+        /// What is wrong there, naming the value.
+        problem: String,
+    },
+    /// A sample's (material, pose) index lies outside the dataset. Write only samples with
+    /// `material < materials` and `pose < poses`, the counts of the dataset's spec.
+    #[error(
+        "sample (material {material}, pose {pose}) is outside the dataset's {materials} \
+         materials x {poses} poses"
+    )]
+    SampleOutOfRange {
+        /// The material index given.
+        material: usize,
+        /// The pose index given.
+        pose: usize,
+        /// The number of materials in the dataset.
+        materials: usize,
+        /// The number of poses in the dataset.
+        poses: usize,
+    },
+    /// A shard is not `i/k` with `i < k`. Write it as two integers, e.g. `0/4` for the first
+    /// of four; the shards of `k` are `0/k` to `(k-1)/k`.
+    #[error("shard `{text}` is not of the form i/k with i below k, e.g. 0/4{}", shard_range(*count))]
+    InvalidShard {
+        /// The shard as written (or as `index/count`).
+        text: String,
+        /// The shard count `k`, when it was read.
+        count: Option<usize>,
+    },
+    /// A merge names its destination among its sources: merging a dataset into itself would
+    /// delete each sample's marker before copying it. Merge the shards into a new or another
+    /// directory.
+    #[error(
+        "{} is both a source and the destination of the merge: merge the shards into a new \
+         or another directory",
+        path.display()
+    )]
+    MergeIntoSource {
+        /// The source that is the destination.
+        path: PathBuf,
+    },
+    /// A dataset to reuse lists none of this dataset's materials (same name and ω), so it has
+    /// nothing to give. Reuse a dataset made with at least one of the same fabrics, or drop it.
+    #[error(
+        "the dataset to reuse, {}, has none of this dataset's materials (same name and ω): \
+         nothing to reuse",
+        dataset.display()
+    )]
+    NothingToReuse {
+        /// The dataset to reuse.
+        dataset: PathBuf,
+    },
+    /// A step size of the walk between poses is out of range (see [`StepParameter`] for each
+    /// one's range). Give a value in range; [`crate::SequenceSettings::default`] has working
+    /// ones.
+    #[error("{parameter} must be {}, got {value}", parameter.requirement(*min))]
+    StepOutOfRange {
+        /// Which step size.
+        parameter: StepParameter,
+        /// The value given.
+        value: f64,
+        /// The smallest value allowed.
+        min: f64,
+    },
+    /// A walk was asked to resume at a pose it does not have, or from positions that do not
+    /// fit the garment. Resume at a pose from 1 to the number of poses, with the settled
+    /// garment of the pose before it (one position per garment vertex).
+    #[error(
+        "cannot resume at pose {next} of {poses} with {positions} positions for a \
+         {vertices}-vertex garment: resume at a pose from 1 to {poses} with one position per \
+         vertex"
+    )]
+    InvalidResume {
+        /// The pose to resume at ([`crate::SequenceResume::next`]).
+        next: usize,
+        /// The number of poses in the walk.
+        poses: usize,
+        /// The number of positions given.
+        positions: usize,
+        /// The garment's vertex count.
+        vertices: usize,
+    },
+    /// A spring joins a vertex to itself: it has no direction and pulls on nothing. Remove it.
+    #[error("spring {spring} joins vertex {vertex} to itself; remove it")]
+    DegenerateSpring {
+        /// The spring's index.
+        spring: usize,
+        /// The vertex at both its ends.
+        vertex: usize,
+    },
+    /// No everyday pose has this name. Use one of the suite's
+    /// ([`crate::everyday_pose_names`]; case is ignored).
+    #[error("no everyday pose is called `{name}`; the suite has {}", known.join(", "))]
+    UnknownEverydayPose {
+        /// The name asked for.
+        name: String,
+        /// The suite's pose names, in order.
+        known: Vec<&'static str>,
+    },
+    /// The solver settings could not be written as JSON for the dataset's spec. This is a bug
+    /// in garmatnet: please report it with the command that failed.
+    #[error("could not serialise the solver settings: {source}")]
+    SettingsJson {
+        /// serde_json's reason.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// The worker threads could not be started. Ask for fewer threads (`--threads`), or free
+    /// system resources (memory, the process limit).
+    #[error("cannot start a pool of {threads} worker threads: {source}; ask for fewer threads")]
+    ThreadPool {
+        /// The number of threads asked for (0: one per core).
+        threads: usize,
+        /// rayon's reason.
+        #[source]
+        source: rayon::ThreadPoolBuildError,
+    },
     /// Dataset generation was asked to stop (e.g. Ctrl-C or a test's simulated kill).
     /// Finished samples are on disk; run the same command again to resume.
     #[error("interrupted; finished samples are saved, run the same command again to resume")]
@@ -137,6 +266,64 @@ pub enum SpecField {
     Solver,
     /// The Laplacian smoothing settings.
     Smoothing,
+}
+
+impl std::fmt::Display for SpecField {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SpecField::GroundTruthRevision => "ground-truth revision",
+            SpecField::Protocol => "drape protocol",
+            SpecField::Template => "template",
+            SpecField::Body => "body",
+            SpecField::Materials => "materials",
+            SpecField::Poses => "poses",
+            SpecField::Solver => "solver settings",
+            SpecField::Smoothing => "smoothing settings",
+        })
+    }
+}
+
+/// A step size of the walk between poses ([`crate::SequenceSettings`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum StepParameter {
+    /// `max_step_rad`: the largest turn of any joint between intermediate poses (radians),
+    /// finite and at least [`crate::MIN_STEP_RAD`] (a smaller step would cut a turn into
+    /// millions of poses).
+    JointTurn,
+    /// `max_surface_step`: the largest distance the skin carries a cloth vertex per
+    /// intermediate step (metres), finite and non-negative (0 turns the bound off).
+    SurfaceTravel,
+}
+
+impl StepParameter {
+    /// What a valid value is, for messages, given the smallest one allowed.
+    fn requirement(self, min: f64) -> String {
+        match self {
+            StepParameter::JointTurn => format!("a finite number of radians of at least {min}"),
+            StepParameter::SurfaceTravel => {
+                "a non-negative number of metres (0 turns it off)".to_owned()
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for StepParameter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            StepParameter::JointTurn => "the interpolation step max_step_rad",
+            StepParameter::SurfaceTravel => "max_surface_step",
+        })
+    }
+}
+
+/// The shards of `count`, for [`Error::InvalidShard`]'s message.
+fn shard_range(count: Option<usize>) -> String {
+    match count {
+        Some(0) => "; k must be at least 1".to_owned(),
+        Some(k) => format!("; the shards of {k} are 0/{k} .. {}/{k}", k - 1),
+        None => String::new(),
+    }
 }
 
 /// Shorthand for results in `garmatnet-sim`.

@@ -24,7 +24,7 @@ pub use dataset::sample_deriver::{BODY_NAME, SampleDeriver};
 pub use dataset::shard::{MergeReport, Shard, merge_shards};
 pub use dataset::writer::{DatasetWriter, samples_dir, scan_samples};
 pub use dataset::{manifest, sample_arrays};
-pub use error::{Error, Result, SpecField};
+pub use error::{Error, Result, SpecField, StepParameter};
 pub use motion::arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 pub use motion::arm_placement::{ArmPlacement, Side};
 pub use motion::everyday_poses::{
@@ -54,7 +54,7 @@ pub use solver::drape_energy::{
     EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
 };
 pub use solver::drape_settings::{DrapeSettings, FactorPrecision};
-pub use solver::drape_solver::{DrapeSolver, DrapeStats};
+pub use solver::drape_solver::{DrapeSolver, DrapeStats, force_residual};
 pub use solver::garment_drape::{
     FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
     drape_poses, drape_sequence, settle_at_rest, surface_steps,

@@ -115,6 +115,29 @@ pub enum Error {
         message: String,
     },
 
+    /// An input that must hold something is empty (no training sample to fit an output
+    /// normaliser on, no cloth model for an energy batch). Give it what the message says it
+    /// needs.
+    #[error("{what} needs {needs}")]
+    EmptyInput {
+        /// What was asked for, e.g. `"an energy batch"`.
+        what: &'static str,
+        /// What it needs, e.g. `"at least one cloth model"`.
+        needs: &'static str,
+    },
+
+    /// A tensor's values could not be read back from its device (its storage does not hold
+    /// the float type asked for, or the backend failed). Pass a float tensor; if it is one,
+    /// this is a bug in garmatnet or the backend: please report it with the command that
+    /// failed.
+    #[error("cannot read {what} back from the device: {source}")]
+    TensorRead {
+        /// The tensor, e.g. `"garment positions of a body field"`.
+        what: &'static str,
+        /// The backend's reason.
+        source: burn::tensor::DataError,
+    },
+
     /// Drawing a chart failed (plotters).
     #[error("cannot draw the plot `{path}`: {message}")]
     Plot {

@@ -41,7 +41,8 @@ pub use data::files::split_path;
 pub use data::loader::{
     BODY_POINT_TOLERANCE, LoadedSamples, SampleKey, SampleTruth, TrainingDataset,
 };
-pub use data::split::{Split, SplitConfig, material_indices};
+pub use data::split::{Split, material_indices};
+pub use data::split_config::SplitConfig;
 pub use data::stored_sequence::{StoredSequence, stored_sequence};
 pub use error::DIVERGENCE_LOSS;
 pub use error::{Error, Result};
@@ -71,5 +72,6 @@ pub use training::baseline::{
 pub use training::checkpoint::{
     CHECKPOINT_VERSION, CheckpointDir, CheckpointState, LearningRateChange, NetProgress, Phase,
 };
-pub use training::trainer::{NetSummary, RunOptions, TrainConfig, TrainSummary, train};
+pub use training::train_config::{RunOptions, TrainConfig};
+pub use training::trainer::{NetSummary, TrainSummary, train};
 pub use training::training_loop::{COSINE_FINAL_FRACTION, LearningRateSchedule, STD_FLOOR};

@@ -104,8 +104,9 @@ impl CapsuleBody {
     /// every capsule.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for an empty capsule list, a body too large to mesh
-    /// (a box past 2^27 points at [`REST_MESH_SPACING`]) or a root joint listed twice; the
+    /// [`Error::Empty`] for an empty capsule list; [`Error::BodyTooLarge`] for a body too
+    /// large to mesh (a box past 2^27 points at [`REST_MESH_SPACING`]);
+    /// [`Error::DuplicateLimbRoot`] for a root joint listed twice; the
     /// errors of [`Capsule::validate`] for a bad capsule; [`Error::OutOfRange`] for a blend
     /// radius that is not positive and finite, more than
     /// [`crate::body::capsule_union::MAX_LIMB_ROOTS`] roots, a root joint past 23 or a reach that
@@ -117,9 +118,10 @@ impl CapsuleBody {
         limb_roots: &[LimbRoot],
     ) -> Result<Self> {
         if capsules.is_empty() {
-            return Err(Error::InvalidArgument(
-                "a capsule body needs at least one capsule".into(),
-            ));
+            return Err(Error::Empty {
+                what: "a capsule body".into(),
+                item: "capsule",
+            });
         }
         for c in &capsules {
             c.validate()?;
@@ -142,11 +144,11 @@ impl CapsuleBody {
         let (lo, hi) = bounding_box(&rest, blend_radius);
         let extent = (hi - lo) / REST_MESH_SPACING;
         if extent.iter().map(|e| e + 5.0).product::<Real>() > MAX_GRID_POINTS as Real {
-            return Err(Error::InvalidArgument(format!(
-                "the body spans {:?} metres, too large to mesh at {REST_MESH_SPACING} m; \
-                 check that the capsules are in metres",
-                hi - lo
-            )));
+            let size = hi - lo;
+            return Err(Error::BodyTooLarge {
+                extent: [size.x, size.y, size.z],
+                spacing: REST_MESH_SPACING,
+            });
         }
         let parts = capsules.iter().map(|c| part_of_joint[c.joint]).collect();
         let rest_joins = limb_roots

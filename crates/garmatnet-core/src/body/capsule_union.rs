@@ -80,8 +80,8 @@ pub const DEFAULT_LIMB_ROOTS: [LimbRoot; 2] = [
 ///
 /// # Errors
 /// [`Error::OutOfRange`] for more than [`MAX_LIMB_ROOTS`] roots, a joint index past 23 or a
-/// reach that is not finite and at least 0; [`Error::InvalidArgument`] for a joint listed
-/// twice.
+/// reach that is not finite and at least 0; [`Error::DuplicateLimbRoot`] for a joint
+/// listed twice.
 pub(crate) fn parts_of_joints(roots: &[LimbRoot]) -> Result<[u8; JOINT_COUNT]> {
     if roots.len() > MAX_LIMB_ROOTS {
         return Err(Error::OutOfRange {
@@ -112,10 +112,7 @@ pub(crate) fn parts_of_joints(roots: &[LimbRoot]) -> Result<[u8; JOINT_COUNT]> {
             });
         }
         if roots[..i].iter().any(|o| o.joint == r.joint) {
-            return Err(Error::InvalidArgument(format!(
-                "limb root joint {} is listed twice",
-                r.joint
-            )));
+            return Err(Error::DuplicateLimbRoot { joint: r.joint });
         }
     }
     Ok(std::array::from_fn(|joint| {

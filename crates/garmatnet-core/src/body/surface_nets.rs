@@ -22,7 +22,7 @@ pub(crate) const MAX_GRID_POINTS: usize = 1 << 27;
 ///
 /// # Errors
 /// [`Error::OutOfRange`] for a spacing that is not positive or a grid past 2^27 points;
-/// [`Error::InvalidArgument`] for an empty or non-finite box; [`Error::InvalidMesh`] if
+/// [`Error::InvalidBox`] for an empty or non-finite box; [`Error::InvalidMesh`] if
 /// the surface reaches the grid's boundary (the box does not enclose it).
 pub fn surface_nets<S: SignedDistance + ?Sized>(
     sdf: &S,
@@ -55,9 +55,10 @@ impl Grid {
             });
         }
         if (0..3).any(|a| !(min[a].is_finite() && max[a].is_finite() && min[a] < max[a])) {
-            return Err(Error::InvalidArgument(format!(
-                "surface-nets box min {min:?} .. max {max:?} must be finite with min < max on every axis"
-            )));
+            return Err(Error::InvalidBox {
+                min: [min.x, min.y, min.z],
+                max: [max.x, max.y, max.z],
+            });
         }
         let margin = 2.0 * spacing;
         let origin = min - Vec3::repeat(margin);

@@ -43,9 +43,9 @@ use std::collections::{HashMap, HashSet};
 
 use serde::{Deserialize, Serialize};
 
-use crate::body::pose::A_POSE_SHOULDER_ANGLE;
-use crate::body::skeleton::{Skeleton, joint_index};
+use crate::body::skeleton::Skeleton;
 use crate::error::{Error, Result};
+use crate::garment::shape::{FittedShape, SHOULDER_SLOPE, ShirtShape};
 use crate::garment::style::GarmentStyle;
 use crate::math::{Real, Vec3};
 
@@ -59,194 +59,6 @@ pub enum Panel {
     Back,
     /// A seam vertex, shared by both panels.
     Seam,
-}
-
-/// Ease and proportions, all derived from the skeleton (metres).
-#[derive(Debug, Clone)]
-struct ShirtShape {
-    /// Torso half-width (x) and half-depth (z), ease included.
-    a: Real,
-    c: Real,
-    /// Torso centre depth (z).
-    zc: Real,
-    /// Hem height, shoulder ridge height at the centre.
-    y_hem: Real,
-    y_ridge_centre: Real,
-    /// Height of the shoulder cap (ridge down to where the torso is vertical).
-    cap_height: Real,
-    /// Sleeve radius (around the arm bone), ease included.
-    sleeve_radius: Real,
-    /// |x| of the cuffs.
-    x_cuff: Real,
-    /// |x| of the neck opening's sides.
-    x_neck: Real,
-    /// Pattern depths of the neck cut-out, front and back (metres).
-    neck_drop_front: Real,
-    neck_drop_back: Real,
-    /// Shoulder and elbow joints of the left (+x) and right (-x) arms.
-    arm: [(Vec3, Vec3); 2],
-    /// How far the armpit (the side seam's top) sits below the sleeve's underarm line.
-    armpit_drop: Real,
-    /// The fitted cut's extra shape, `None` for the boxy shirt.
-    fitted: Option<FittedShape>,
-}
-
-/// What the fitted cut adds to the boxy construction (metres, radians).
-#[derive(Debug, Clone)]
-struct FittedShape {
-    /// Ridge (shoulder seam) height over the neck's sides; it slopes down from `x_neck` to
-    /// the shoulder point `a` by `SHOULDER_SLOPE`.
-    y_ridge_neck: Real,
-    /// The (left) sleeve's top seam runs from the shoulder point `top_start` (over the
-    /// torso's side) to the cuff's top `top_end`; its underarm seam from the armpit
-    /// `under_start` to the cuff's bottom `under_end`. The cuff ring lies square to the arm
-    /// in the A-pose.
-    top_start: Vec3,
-    top_end: Vec3,
-    under_start: Vec3,
-    under_end: Vec3,
-    /// Half-depth (z) of the armhole and radius of the cuff.
-    armhole_half_depth: Real,
-    cuff_radius: Real,
-    /// The arm's depth (z): the sleeve's mid-plane.
-    arm_z: Real,
-    /// The A-posed arm's upward normal (in the x-y plane) and how far the top seam bows
-    /// out along it halfway to the cuff.
-    arm_up: Vec3,
-    shoulder_bow: Real,
-    /// The sleeve band's height in the pattern (metres): half the sleeve's circumference.
-    sleeve_band: Real,
-}
-
-/// The fitted cut's shoulder seam slope below horizontal (radians): 12°. Real T-shirts have
-/// 15-20°; the capsule body's shoulders are square (they rise outward), and a steeper seam
-/// would float several centimetres above the neck's sides.
-const SHOULDER_SLOPE: Real = 12.0 * std::f64::consts::PI / 180.0;
-
-impl ShirtShape {
-    fn from_skeleton(skeleton: &Skeleton, style: GarmentStyle) -> Result<Self> {
-        match style {
-            GarmentStyle::Boxy => Self::boxy(skeleton),
-            GarmentStyle::Fitted => Self::fitted(skeleton),
-        }
-    }
-
-    /// The fitted cut on the skeleton made left-right symmetric (each left joint averaged
-    /// with its mirrored right twin, centre joints on x = 0), so the shirt is exactly
-    /// mirror-symmetric.
-    fn fitted(skeleton: &Skeleton) -> Result<Self> {
-        let j = skeleton.rest_joints();
-        let at = |name: &str| j[joint_index(name).expect("SMPL joint names are fixed")];
-        let twin = |left: &str| {
-            let (l, r) = (at(left), at(&left.replace("left", "right")));
-            Vec3::new(0.5 * (l.x - r.x), 0.5 * (l.y + r.y), 0.5 * (l.z + r.z))
-        };
-        let (ls, le) = (twin("left_shoulder"), twin("left_elbow"));
-        let span = 2.0 * ls.x;
-        if !(0.1..=1.0).contains(&span) || le.x <= ls.x {
-            return Err(Error::InvalidArgument(format!(
-                "the T-shirt needs a T-pose skeleton with the left arm along +x and shoulders \
-                 0.1-1 m apart; got shoulders {span:.3} m apart"
-            )));
-        }
-        let spine = ["pelvis", "spine1", "spine2", "spine3", "neck"];
-        let zc = spine.iter().map(|n| at(n).z).sum::<Real>() / spine.len() as Real;
-        let neck_y = at("neck").y;
-        // Regular fit: ~2.2 cm off SMPL's mean chest all round (about 10 cm of circumference
-        // ease), 2 cm round the upper arm, a crew neck 1.5-2 cm off the neck's base.
-        let a = 0.47 * span + 0.022;
-        let sleeve_radius = 0.16 * span + 0.019;
-        let x_neck = 0.22 * span;
-        let y_sleeve_top = ls.y + sleeve_radius;
-        let y_ridge_neck = y_sleeve_top + SHOULDER_SLOPE.tan() * (a - x_neck);
-        let right = |v: Vec3| Vec3::new(-v.x, v.y, v.z);
-        let armpit_drop = 0.07;
-        // The A-posed arm: the upper arm turned down about the shoulder joint.
-        let (sin, cos) = A_POSE_SHOULDER_ANGLE.sin_cos();
-        let bone = le - ls;
-        let along = Vec3::new(
-            bone.x * cos + bone.y * sin,
-            -bone.x * sin + bone.y * cos,
-            0.0,
-        )
-        .normalize();
-        let up = Vec3::new(-along.y, along.x, 0.0);
-        let cuff_radius = sleeve_radius - 0.01;
-        let cuff_centre = Vec3::new(ls.x, ls.y, zc) + along * (0.8 * bone.norm());
-        Ok(Self {
-            a,
-            c: 0.315 * span + 0.024,
-            zc,
-            y_hem: at("pelvis").y - 0.05,
-            y_ridge_centre: y_ridge_neck,
-            cap_height: 0.12,
-            sleeve_radius,
-            x_cuff: ls.x + 0.8 * (le.x - ls.x),
-            x_neck,
-            neck_drop_front: 0.1,
-            neck_drop_back: 0.08,
-            arm: [(ls, le), (right(ls), right(le))],
-            armpit_drop,
-            fitted: Some(FittedShape {
-                y_ridge_neck: y_ridge_neck.max(neck_y),
-                top_start: Vec3::new(a, y_sleeve_top, zc),
-                top_end: cuff_centre + up * cuff_radius,
-                under_start: Vec3::new(a, ls.y - sleeve_radius - armpit_drop, zc),
-                under_end: cuff_centre - up * cuff_radius,
-                armhole_half_depth: sleeve_radius + 0.01,
-                cuff_radius,
-                arm_z: ls.z,
-                arm_up: up,
-                shoulder_bow: 0.015,
-                sleeve_band: 0.26,
-            }),
-        })
-    }
-
-    fn boxy(skeleton: &Skeleton) -> Result<Self> {
-        let j = skeleton.rest_joints();
-        let at = |name: &str| j[joint_index(name).expect("SMPL joint names are fixed")];
-        let (ls, rs) = (at("left_shoulder"), at("right_shoulder"));
-        let (le, re) = (at("left_elbow"), at("right_elbow"));
-        let span = ls.x - rs.x;
-        if !(0.1..=1.0).contains(&span) || le.x <= ls.x || re.x >= rs.x {
-            return Err(Error::InvalidArgument(format!(
-                "the T-shirt needs a T-pose skeleton with the left arm along +x and shoulders \
-                 0.1-1 m apart; got shoulders {span:.3} m apart"
-            )));
-        }
-        let spine = ["pelvis", "spine1", "spine2", "spine3", "neck"];
-        let zc = spine.iter().map(|n| at(n).z).sum::<Real>() / spine.len() as Real;
-        // SMPL's mean body: chest ~0.94 x shoulder span wide, ~0.63 x deep, upper arm
-        // ~0.16 x thick; the ease (4 cm torso, 3.5 cm sleeve) is what keeps the shirt clear.
-        let sleeve_radius = 0.16 * span + 0.035;
-        Ok(Self {
-            a: 0.47 * span + 0.04,
-            c: 0.315 * span + 0.04,
-            zc,
-            y_hem: at("pelvis").y - 0.05,
-            y_ridge_centre: at("neck").y + 0.045,
-            cap_height: 0.1,
-            sleeve_radius,
-            x_cuff: ls.x + 0.75 * (le.x - ls.x),
-            x_neck: 0.6 * (ls.x - at("neck").x),
-            neck_drop_front: 0.16,
-            neck_drop_back: 0.1,
-            arm: [(ls, le), (rs, re)],
-            armpit_drop: 0.025,
-            fitted: None,
-        })
-    }
-
-    /// The arm bone's axis point at `x` (extrapolated along shoulder -> elbow).
-    fn arm_axis(&self, x: Real) -> Vec3 {
-        let (s, e) = self.arm[usize::from(x < 0.0)];
-        s + (e - s) * ((x - s.x) / (e.x - s.x))
-    }
-
-    fn sleeve_top(&self, sign: Real) -> Real {
-        self.arm_axis(sign * self.a).y + self.sleeve_radius
-    }
 }
 
 /// Cumulative arc length of the quarter ellipse `(a sin t, c cos t)`, `t` in `[0, pi/2]`,
@@ -391,10 +203,7 @@ impl TshirtPattern {
             cells_of(shape.neck_drop_back),
         ];
         if jt <= js + drops[0] || i_neck >= it || Real::from(js) * h <= cap_arc {
-            return Err(Error::InvalidArgument(
-                "the skeleton's proportions leave no room for the T-shirt's neck and sleeves"
-                    .into(),
-            ));
+            return Err(Error::NoRoomForGarment);
         }
 
         let in_t = |(i, j): GridPoint| {

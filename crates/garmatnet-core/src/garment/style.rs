@@ -49,8 +49,10 @@ impl FromStr for GarmentStyle {
         GarmentStyle::ALL
             .into_iter()
             .find(|g| g.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| {
-                Error::InvalidArgument(format!("unknown garment style `{s}`; use fitted or boxy"))
+            .ok_or_else(|| Error::UnknownName {
+                kind: "garment style",
+                name: s.trim().to_owned(),
+                options: "fitted or boxy",
             })
     }
 }

@@ -7,10 +7,6 @@
 //! ([`Garment::rest_pose`]): [`Pose::a_pose`] for the fitted cut (the default), the T-pose
 //! for the boxy one.
 
-use std::collections::HashMap;
-use std::fmt;
-use std::str::FromStr;
-
 use serde::{Deserialize, Serialize};
 
 use crate::body::anchor::BodyAnchor;
@@ -19,7 +15,9 @@ use crate::body::pose::Pose;
 use crate::body::sdf::{SignedDistance, SkinnedBody};
 use crate::body::skeleton::JOINT_COUNT;
 use crate::error::{Error, Result};
+use crate::garment::openings::{BoundaryLoop, boundary_loops};
 use crate::garment::pattern::{Panel, TshirtPattern};
+use crate::garment::resolution::Resolution;
 use crate::garment::spring::SpringKind;
 use crate::garment::spring::{Spring, provot_springs};
 use crate::garment::style::GarmentStyle;
@@ -28,88 +26,6 @@ use crate::mesh::TriMesh;
 
 /// The least distance (metres) between the rest shirt and the rest body.
 pub const MIN_BODY_CLEARANCE: Real = 0.005;
-
-/// How finely the T-shirt is meshed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Resolution {
-    /// About 800 vertices: fast tests and CI.
-    Coarse,
-    /// About 2,500 vertices.
-    #[default]
-    Default,
-    /// About 4,300 vertices, like the paper's mesh (n = 4,281).
-    Paper,
-}
-
-impl Resolution {
-    /// All resolutions, coarsest first.
-    pub const ALL: [Resolution; 3] = [Resolution::Coarse, Resolution::Default, Resolution::Paper];
-
-    /// The pattern grid spacing (metres).
-    #[must_use]
-    pub fn grid_spacing(self) -> Real {
-        match self {
-            Resolution::Coarse => 0.034,
-            Resolution::Default => 0.019,
-            Resolution::Paper => 0.0146,
-        }
-    }
-
-    /// The lowercase name (`coarse`, `default`, `paper`).
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Resolution::Coarse => "coarse",
-            Resolution::Default => "default",
-            Resolution::Paper => "paper",
-        }
-    }
-}
-
-impl fmt::Display for Resolution {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Resolution {
-    type Err = Error;
-
-    fn from_str(s: &str) -> Result<Self> {
-        Resolution::ALL
-            .into_iter()
-            .find(|r| r.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| {
-                Error::InvalidArgument(format!(
-                    "unknown resolution `{s}`; use coarse, default or paper"
-                ))
-            })
-    }
-}
-
-/// An opening of the garment (a boundary loop of its mesh).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Opening {
-    /// The neck hole.
-    Neck,
-    /// The bottom hem.
-    Hem,
-    /// The left sleeve's cuff (+x, the body's left).
-    LeftCuff,
-    /// The right sleeve's cuff (-x).
-    RightCuff,
-}
-
-/// A boundary loop: the vertices around one opening, in order.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BoundaryLoop {
-    /// Which opening.
-    pub opening: Opening,
-    /// Vertex indices around the loop (first not repeated at the end).
-    pub vertices: Vec<u32>,
-}
 
 /// The garment template a dataset or model was made with: enough to rebuild it
 /// ([`Garment::for_template`]) and to refuse another. Dataset manifests and model files
@@ -222,9 +138,10 @@ impl Garment {
     /// the mirror of the other.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] if the skeleton is not a usable T-pose or if a shirt
-    /// vertex would lie within [`MIN_BODY_CLEARANCE`] of the posed body (the body is much
-    /// larger than its skeleton suggests); [`Error::InvalidMesh`] if the body's projection or
+    /// [`Error::NotATPose`] / [`Error::NoRoomForGarment`] if the skeleton is not a usable
+    /// T-pose; [`Error::GarmentInsideBody`] / [`Error::GarmentTooTight`] if a shirt vertex
+    /// would lie within [`MIN_BODY_CLEARANCE`] of the posed body or move too far to clear it
+    /// (the body is much larger than its skeleton suggests); [`Error::InvalidMesh`] if the body's projection or
     /// skin weights are unusable.
     pub fn with_style(
         style: GarmentStyle,
@@ -265,15 +182,12 @@ impl Garment {
                 GarmentStyle::Boxy => body.distance(p),
             };
             if distance.is_nan() || distance <= MIN_BODY_CLEARANCE {
-                return Err(Error::InvalidArgument(format!(
-                    "T-shirt vertex {k} at ({:.3}, {:.3}, {:.3}) m is {:.1} mm from the body \
-                     (at least {:.0} mm needed): the body is larger than its skeleton suggests",
-                    p.x,
-                    p.y,
-                    p.z,
-                    distance * 1e3,
-                    MIN_BODY_CLEARANCE * 1e3
-                )));
+                return Err(Error::GarmentInsideBody {
+                    vertex: k,
+                    position: [p.x, p.y, p.z],
+                    distance_mm: distance * 1e3,
+                    needed_mm: MIN_BODY_CLEARANCE * 1e3,
+                });
             }
             let anchor = match style {
                 GarmentStyle::Boxy => {
@@ -400,7 +314,7 @@ impl Garment {
 /// right-half vertex to its mirror twin's mirror image: the mesh stays exactly symmetric.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] if a vertex would move more than [`MAX_FIT_PUSH`]: the body
+/// [`Error::GarmentTooTight`] if a vertex would move more than [`MAX_FIT_PUSH`]: the body
 /// is much larger than its skeleton suggests.
 fn push_out_symmetric(
     vertices: &mut [Vec3],
@@ -428,17 +342,13 @@ fn push_out_symmetric(
         }
         let moved = (pushed - *p).norm();
         if moved > MAX_FIT_PUSH {
-            return Err(Error::InvalidArgument(format!(
-                "T-shirt vertex {k} at ({:.3}, {:.3}, {:.3}) m is {:.1} mm from the body \
-                 and would move {:.0} mm to clear it (at most {:.0} mm allowed): the body is \
-                 larger than its skeleton suggests",
-                p.x,
-                p.y,
-                p.z,
-                body.distance(p) * 1e3,
-                moved * 1e3,
-                MAX_FIT_PUSH * 1e3
-            )));
+            return Err(Error::GarmentTooTight {
+                vertex: k,
+                position: [p.x, p.y, p.z],
+                distance_mm: body.distance(p) * 1e3,
+                push_mm: moved * 1e3,
+                max_push_mm: MAX_FIT_PUSH * 1e3,
+            });
         }
         *p = pushed;
     }
@@ -525,86 +435,6 @@ fn check_weights(vertex: usize, weights: &[(usize, Real)]) -> Result<()> {
     Ok(())
 }
 
-/// The mesh's boundary loops, classified by where they are.
-fn boundary_loops(mesh: &TriMesh) -> Result<Vec<BoundaryLoop>> {
-    let mut count: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in &mesh.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            *count.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    // Directed boundary edges in face order, so each loop is walked consistently.
-    let mut next: HashMap<u32, u32> = HashMap::new();
-    for f in &mesh.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            if count[&(a.min(b), a.max(b))] == 1 && next.insert(a, b).is_some() {
-                return Err(Error::InvalidMesh(format!(
-                    "boundary vertex {a} is not manifold"
-                )));
-            }
-        }
-    }
-    let mut starts: Vec<u32> = next.keys().copied().collect();
-    starts.sort_unstable();
-    let mut visited = std::collections::HashSet::new();
-    let mut loops = Vec::new();
-    for start in starts {
-        if visited.contains(&start) {
-            continue;
-        }
-        let mut ring = vec![start];
-        visited.insert(start);
-        let mut at = next[&start];
-        while at != start {
-            if !visited.insert(at) {
-                return Err(Error::InvalidMesh("a boundary loop does not close".into()));
-            }
-            ring.push(at);
-            at = *next
-                .get(&at)
-                .ok_or_else(|| Error::InvalidMesh("open boundary".into()))?;
-        }
-        loops.push(ring);
-    }
-    if loops.len() != 4 {
-        return Err(Error::InvalidMesh(format!(
-            "a T-shirt has 4 openings, the mesh has {} boundary loops",
-            loops.len()
-        )));
-    }
-    let centroid = |ring: &[u32]| {
-        ring.iter()
-            .map(|&i| mesh.vertices[i as usize])
-            .sum::<Vec3>()
-            / ring.len() as Real
-    };
-    let centres: Vec<Vec3> = loops.iter().map(|r| centroid(r)).collect();
-    let by = |key: &dyn Fn(&Vec3) -> Real| {
-        (0..4)
-            .max_by(|&a, &b| key(&centres[a]).total_cmp(&key(&centres[b])))
-            .unwrap_or(0)
-    };
-    let left = by(&|c| c.x);
-    let right = by(&|c| -c.x);
-    let hem = by(&|c| -c.y);
-    let mut out = Vec::with_capacity(4);
-    for (k, ring) in loops.into_iter().enumerate() {
-        let opening = match k {
-            _ if k == left => Opening::LeftCuff,
-            _ if k == right => Opening::RightCuff,
-            _ if k == hem => Opening::Hem,
-            _ => Opening::Neck,
-        };
-        out.push(BoundaryLoop {
-            opening,
-            vertices: ring,
-        });
-    }
-    Ok(out)
-}
-
 /// FNV-1a, 64 bits.
 struct Fnv1a(u64);
 
@@ -653,8 +483,9 @@ mod tests {
     use crate::body::capsule_body::CapsuleBody;
     use crate::body::pose::Pose;
     use crate::body::skeleton::Skeleton;
+    use crate::garment::openings::Opening;
     use approx::assert_relative_eq;
-    use std::collections::HashSet;
+    use std::collections::{HashMap, HashSet};
     use std::sync::OnceLock;
 
     fn body() -> &'static CapsuleBody {
@@ -965,7 +796,10 @@ mod tests {
             let fat = Fat(CapsuleBody::smpl_neutral());
             let err = Garment::with_style(style, Resolution::Coarse, &fat).unwrap_err();
             assert!(
-                err.to_string().contains("mm from the body"),
+                matches!(
+                    err,
+                    Error::GarmentInsideBody { .. } | Error::GarmentTooTight { .. }
+                ) && err.to_string().contains("mm from the body"),
                 "{style}: {err}"
             );
         }

@@ -43,10 +43,12 @@ pub fn compare_path(path: &Path) -> PathBuf {
     path.with_file_name(format!("{stem}_compare.png"))
 }
 
-/// The material of a `--material` / `--omega` pair: `omega` (normalised ω, see
-/// [`material_from_omega`]) when given, else `material` (a preset name or six physical
-/// values, see [`Material::from_str`](std::str::FromStr)), else the preset named `default`.
-
+/// A file-name-safe lowercase form of a name (e.g. a fabric's): ASCII letters and digits
+/// kept, everything else `_`.
+///
+/// ```
+/// assert_eq!(garmatnet_core::slug("Sherpa Fleece 160"), "sherpa_fleece_160");
+/// ```
 #[must_use]
 pub fn slug(name: &str) -> String {
     name.chars()
@@ -59,10 +61,6 @@ pub fn slug(name: &str) -> String {
         })
         .collect()
 }
-
-/// Parses a normalised material ω: six comma-separated numbers in [0, 1] (structural V/H,
-/// flexion V/H, shear, density on the library's log scale; see
-/// [`Material::to_normalized`]).
 
 /// The kinds of file a drape can be written as, chosen by extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -354,7 +352,8 @@ pub fn comparison_image(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::garment::template::{Garment, Resolution};
+    use crate::garment::resolution::Resolution;
+    use crate::garment::template::Garment;
     #[test]
     fn numbered_paths_sort_in_frame_order() {
         let p = Path::new("out/drape.obj");

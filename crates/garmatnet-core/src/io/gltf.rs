@@ -87,13 +87,15 @@ pub struct GlbSkinnedMesh<'a> {
 /// Writes `meshes` as one `.glb` file, atomically.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for an empty list or an empty mesh, [`Error::Mismatch`] when a
-/// vertex-colour list does not match its mesh, [`Error::Io`] when the file cannot be written.
+/// [`Error::Empty`] for an empty list or an empty mesh, [`Error::Mismatch`] when a
+/// vertex-colour list does not match its mesh, [`Error::GlbTooLarge`] for a file past the
+/// format's 4 GiB, [`Error::Io`] when the file cannot be written.
 pub fn write_glb(path: impl AsRef<Path>, meshes: &[GlbMesh<'_>]) -> Result<()> {
     if meshes.is_empty() {
-        return Err(Error::InvalidArgument(
-            "write_glb needs at least one mesh".into(),
-        ));
+        return Err(Error::Empty {
+            what: "write_glb".into(),
+            item: "mesh",
+        });
     }
     let mut glb = GlbBuilder::default();
     for item in meshes {
@@ -113,11 +115,12 @@ pub fn write_glb(path: impl AsRef<Path>, meshes: &[GlbMesh<'_>]) -> Result<()> {
 /// a still scene.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for no mesh at all, a mesh without frames, an empty mesh, a
-/// frame rate that is not a positive finite number (or so extreme that the frames' key times
-/// overflow or coincide in 32-bit floats), skinning weights that are not 1 to 4
-/// finite, non-negative pairs on valid joints summing to one, or a file past glTF binary's
-/// 4 GiB; [`Error::Mismatch`] when a mesh's frames differ in topology, the weights do not
+/// [`Error::Empty`] for no mesh at all, a mesh without frames or poses, or an empty mesh;
+/// [`Error::InvalidFrameRate`] for a frame rate that is not a positive finite number, and
+/// [`Error::KeyTimes`] for one so extreme that the frames' key times overflow or coincide in
+/// 32-bit floats; [`Error::InvalidSkinWeights`] for skinning weights that are not 1 to 4
+/// finite, non-negative pairs on valid joints summing to one; [`Error::GlbTooLarge`] for a
+/// file past glTF binary's 4 GiB or its indices; [`Error::Mismatch`] when a mesh's frames differ in topology, the weights do not
 /// match the vertices, or the meshes differ in frame count; [`Error::Io`] when the file
 /// cannot be written. Nothing is written on error.
 pub fn write_glb_animation(
@@ -132,22 +135,21 @@ pub fn write_glb_animation(
         .map(|m| (m.frames.len(), m.name))
         .or_else(|| skinned.first().map(|s| (s.poses.len(), s.name)))
     else {
-        return Err(Error::InvalidArgument(
-            "write_glb_animation needs at least one mesh".into(),
-        ));
+        return Err(Error::Empty {
+            what: "write_glb_animation".into(),
+            item: "mesh",
+        });
     };
     if !(fps.is_finite() && fps > 0.0) {
-        return Err(Error::InvalidArgument(format!(
-            "the frame rate must be a positive number of frames a second, got {fps}"
-        )));
+        return Err(Error::InvalidFrameRate { fps });
     }
     let mut glb = GlbBuilder::default();
     for item in meshes {
         let Some((first, rest)) = item.frames.split_first() else {
-            return Err(Error::InvalidArgument(format!(
-                "mesh `{}` has no frames",
-                item.name
-            )));
+            return Err(Error::Empty {
+                what: format!("mesh `{}`", item.name),
+                item: "frame",
+            });
         };
         if item.frames.len() != frame_count {
             return Err(Error::Mismatch {
@@ -282,10 +284,10 @@ impl GlbBuilder {
     fn add_mesh(&mut self, item: &GlbMesh<'_>, later_frames: &[TriMesh]) -> Result<()> {
         let mesh = item.mesh;
         if mesh.vertex_count() == 0 || mesh.face_count() == 0 {
-            return Err(Error::InvalidArgument(format!(
-                "mesh `{}` is empty",
-                item.name
-            )));
+            return Err(Error::Empty {
+                what: format!("mesh `{}`", item.name),
+                item: "vertex and triangle",
+            });
         }
         let n = mesh.vertex_count();
         let positions = flat(&mesh.vertices);
@@ -370,10 +372,10 @@ impl GlbBuilder {
             });
         }
         if item.poses.is_empty() {
-            return Err(Error::InvalidArgument(format!(
-                "skinned mesh `{}` has no poses",
-                item.name
-            )));
+            return Err(Error::Empty {
+                what: format!("skinned mesh `{}`", item.name),
+                item: "pose",
+            });
         }
         let mut joints = Vec::with_capacity(n * MAX_INFLUENCES * 2);
         let mut weights = Vec::with_capacity(n * MAX_INFLUENCES);
@@ -385,12 +387,11 @@ impl GlbBuilder {
                     .all(|&(j, w)| j < JOINT_COUNT && w.is_finite() && w >= 0.0)
                 && (sum - 1.0).abs() < 1e-6;
             if !valid {
-                return Err(Error::InvalidArgument(format!(
-                    "the skinning weights of vertex {v} of mesh `{}` must be 1 to \
-                     {MAX_INFLUENCES} (joint < {JOINT_COUNT}, weight ≥ 0) pairs summing to \
-                     one, got {list:?}",
-                    item.name
-                )));
+                return Err(Error::InvalidSkinWeights {
+                    mesh: item.name.to_owned(),
+                    vertex: v,
+                    weights: list.clone(),
+                });
             }
             for slot in 0..MAX_INFLUENCES {
                 let (j, w) = list.get(slot).copied().unwrap_or((0, 0.0));
@@ -479,11 +480,10 @@ impl GlbBuilder {
         // glTF needs finite, strictly increasing key times, which f32 cannot keep for every
         // frame rate and length (1e-30 frames a second overflows, 1e30 rounds them together).
         if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(Error::InvalidArgument(format!(
-                "at {fps} frames a second, the key times of {frame_count} frames do not stay \
-                 finite and apart in glTF's 32-bit floats: use a frame rate such as 24, 30 or \
-                 60"
-            )));
+            return Err(Error::KeyTimes {
+                fps,
+                frames: frame_count,
+            });
         }
         let input = self.push_floats(&times, "SCALAR", None, true);
         let mut samplers = Vec::new();
@@ -504,11 +504,9 @@ impl GlbBuilder {
                 .checked_mul(count)
                 .is_none_or(|n| n > u32::MAX as usize)
             {
-                return Err(Error::InvalidArgument(format!(
-                    "an animation of {} frames is past what one glTF file can index: write \
-                     fewer frames per file",
-                    count + 1
-                )));
+                return Err(Error::GlbTooLarge {
+                    what: format!("an animation of {} frames", count + 1),
+                });
             }
             // Below u32::MAX, checked above.
             let indices: Vec<u8> = (1..=count)
@@ -567,17 +565,14 @@ impl GlbBuilder {
         if !self.skins.is_empty() {
             document["skins"] = json!(self.skins);
         }
-        let mut json_bytes = serde_json::to_vec(&document)
-            .map_err(|e| Error::InvalidArgument(format!("glTF JSON: {e}")))?;
+        let mut json_bytes =
+            serde_json::to_vec(&document).map_err(|source| Error::GlbJson { source })?;
         while !json_bytes.len().is_multiple_of(4) {
             json_bytes.push(b' ');
         }
         let total = 12 + 8 + json_bytes.len() + 8 + self.bin.len();
-        let too_large = || {
-            Error::InvalidArgument(format!(
-                "the glTF binary would take {total} bytes, past the format's 4 GiB: write \
-                 fewer frames or vertices per file"
-            ))
+        let too_large = || Error::GlbTooLarge {
+            what: format!("a file of {total} bytes (the format's limit is 4 GiB)"),
         };
         let as_u32 = |n: usize| u32::try_from(n).map_err(|_| too_large());
         let mut out = Vec::with_capacity(total);
@@ -993,19 +988,21 @@ mod tests {
         }
         for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let err = write_glb_animation(&path, &[item(&two)], &[], fps).unwrap_err();
+            assert!(matches!(err, Error::InvalidFrameRate { .. }), "{err}");
             assert!(err.to_string().contains("frame rate"), "{err}");
         }
         for fps in [1e-300, 1e300] {
             let err = write_glb_animation(&path, &[item(&two)], &[], fps).unwrap_err();
+            assert!(matches!(err, Error::KeyTimes { frames: 2, .. }), "{err}");
             assert!(err.to_string().contains("frame rate such as"), "{err}");
         }
         assert!(matches!(
             write_glb_animation(&path, &[], &[], 30.0),
-            Err(Error::InvalidArgument(_))
+            Err(Error::Empty { item: "mesh", .. })
         ));
         assert!(matches!(
             write_glb_animation(&path, &[item(&[])], &[], 30.0),
-            Err(Error::InvalidArgument(_))
+            Err(Error::Empty { item: "frame", .. })
         ));
         let three = [tri(), tri(), tri()];
         let err = write_glb_animation(&path, &[item(&two), item(&three)], &[], 30.0).unwrap_err();
@@ -1028,7 +1025,7 @@ mod tests {
         let m = tri();
         assert!(matches!(
             write_glb(&path, &[]),
-            Err(Error::InvalidArgument(_))
+            Err(Error::Empty { item: "mesh", .. })
         ));
         let short = [[0, 0, 0]];
         let bad = GlbMesh {

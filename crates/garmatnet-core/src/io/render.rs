@@ -104,7 +104,7 @@ pub const GARMENT_COLOR: Color = [70, 110, 170];
 /// Renders `items` seen by `camera`.
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] for a zero-sized image or supersampling factor, and
+/// [`Error::RenderSize`] for a zero-sized image or supersampling factor, and
 /// [`Error::Mismatch`] when a per-vertex colour list does not match its mesh.
 pub fn render(
     items: &[RenderItem<'_>],
@@ -113,10 +113,11 @@ pub fn render(
 ) -> Result<RgbImage> {
     let ss = settings.supersample;
     if settings.width == 0 || settings.height == 0 || ss == 0 || ss > 8 {
-        return Err(Error::InvalidArgument(format!(
-            "render size {}x{} with supersampling {ss}: width and height must be > 0 and supersampling 1..=8",
-            settings.width, settings.height
-        )));
+        return Err(Error::RenderSize {
+            width: settings.width,
+            height: settings.height,
+            supersample: ss,
+        });
     }
     for item in items {
         if let Shading::PerVertex(c) = item.shading
@@ -383,7 +384,7 @@ mod tests {
         };
         assert!(matches!(
             render(&[item], &cam, &zero),
-            Err(Error::InvalidArgument(_))
+            Err(Error::RenderSize { .. })
         ));
     }
 

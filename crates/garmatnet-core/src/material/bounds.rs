@@ -22,21 +22,21 @@ pub const COMPONENT_NAMES: [&str; MATERIAL_DIM] = [
 pub const COMPONENT_UNITS: [&str; MATERIAL_DIM] = ["N/m", "N/m", "N/m", "N/m", "N/m", "kg/m^2"];
 
 /// Smallest structural (stretch) stiffness in the network's range, N/m (a very loose knit).
-pub const STRUCTURAL_MIN: Real = 10.0;
+pub(crate) const STRUCTURAL_MIN: Real = 10.0;
 /// Largest structural stiffness, N/m (fused interfacing, heavy leather).
-pub const STRUCTURAL_MAX: Real = 20_000.0;
+pub(crate) const STRUCTURAL_MAX: Real = 20_000.0;
 /// Smallest flexion (bending) stiffness, N/m (chiffon, tulle).
-pub const FLEXION_MIN: Real = 0.01;
+pub(crate) const FLEXION_MIN: Real = 0.01;
 /// Largest flexion stiffness, N/m (rigid trims).
-pub const FLEXION_MAX: Real = 2_000.0;
+pub(crate) const FLEXION_MAX: Real = 2_000.0;
 /// Smallest shear stiffness, N/m (open meshes shear almost freely).
-pub const SHEAR_MIN: Real = 1.0;
+pub(crate) const SHEAR_MIN: Real = 1.0;
 /// Largest shear stiffness, N/m (isotropic sheets such as leather and fused trims).
-pub const SHEAR_MAX: Real = 20_000.0;
+pub(crate) const SHEAR_MAX: Real = 20_000.0;
 /// Smallest areal density, kg/m^2 (20 g/m^2, lighter than tulle).
-pub const DENSITY_MIN: Real = 0.02;
+pub(crate) const DENSITY_MIN: Real = 0.02;
 /// Largest areal density, kg/m^2 (1 kg/m^2, thick cowhide or neoprene).
-pub const DENSITY_MAX: Real = 1.0;
+pub(crate) const DENSITY_MAX: Real = 1.0;
 
 /// Per-component bounds of the material space, in ω's order and physical units.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -251,6 +251,19 @@ impl Material {
     }
 }
 
+/// Parses normalised ω (six comma-separated numbers in [0, 1], as
+/// [`Material::parse_values`] reads them with [`MaterialUnits::Normalized`]) and returns the
+/// six values as written, checked, for APIs that take ω itself (e.g. the predictor's
+/// `predict_normalized` and `sequence_normalized`): no round trip through physical units.
+///
+/// # Errors
+/// As [`Material::parse_values`].
+pub fn parse_omega(text: &str) -> Result<[Real; MATERIAL_DIM]> {
+    let values = six_values(text, MaterialUnits::Normalized)?;
+    Material::from_normalized(values)?;
+    Ok(values)
+}
+
 /// The six comma-separated numbers of `text`, unchecked.
 fn six_values(text: &str, units: MaterialUnits) -> Result<[Real; MATERIAL_DIM]> {
     let (what, each) = match units {
@@ -467,6 +480,24 @@ mod tests {
         );
         assert!(omega("0.1,0.2,1.5,0.4,0.5,0.6").is_err());
         assert!(omega("0.1,0.2,NaN,0.4,0.5,0.6").is_err());
+    }
+
+    #[test]
+    fn omega_parses_to_the_values_written() -> anyhow::Result<()> {
+        let text = "0.1, 0.25, 0.3333333333333333, 0.4, 0.5, 0.6";
+        assert_eq!(
+            parse_omega(text)?,
+            [0.1, 0.25, 0.3333333333333333, 0.4, 0.5, 0.6]
+        );
+        assert!(matches!(
+            parse_omega("0.1,0.2,1.5,0.4,0.5,0.6"),
+            Err(Error::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            parse_omega("0.1,0.2"),
+            Err(Error::WrongLength { got: 2, .. })
+        ));
+        Ok(())
     }
 
     #[test]

@@ -584,7 +584,9 @@ mod tests {
             "{short:?}"
         );
         let word = "1200,900,soft,0.4,12,0.09".parse::<Material>().unwrap_err();
-        assert!(matches!(&word, Error::InvalidArgument(m) if m.contains("flexion_vertical")));
+        assert!(
+            matches!(&word, Error::NotANumber { what, .. } if what.contains("flexion_vertical"))
+        );
         let range = "1200,900,0.5,0.4,12,5".parse::<Material>().unwrap_err();
         assert!(matches!(range, Error::OutOfRange { .. }), "{range:?}");
         let name = "no such fabric".parse::<Material>().unwrap_err();

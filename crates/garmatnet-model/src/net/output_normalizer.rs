@@ -47,15 +47,15 @@ impl OutputNormalizer {
     /// Fits mean and std (population) over `samples`, each of length `3n`.
     ///
     /// # Errors
-    /// [`garmatnet_core::Error::InvalidArgument`] for no samples;
+    /// [`crate::Error::EmptyInput`] for no samples;
     /// [`garmatnet_core::Error::WrongLength`] if the samples differ in length;
     /// [`garmatnet_core::Error::NonFinite`] for NaN or infinity.
     pub fn fit<S: AsRef<[Real]>>(samples: &[S]) -> Result<Self> {
         let Some(first) = samples.first() else {
-            return Err(garmatnet_core::Error::InvalidArgument(
-                "cannot fit an output normaliser on zero samples".into(),
-            )
-            .into());
+            return Err(crate::error::Error::EmptyInput {
+                what: "fitting an output normaliser",
+                needs: "at least one sample",
+            });
         };
         let dim = first.as_ref().len();
         let mut mean = vec![0.0; dim];
@@ -220,7 +220,10 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_refused() {
-        assert!(OutputNormalizer::fit::<Vec<Real>>(&[]).is_err());
+        assert!(matches!(
+            OutputNormalizer::fit::<Vec<Real>>(&[]),
+            Err(crate::Error::EmptyInput { .. })
+        ));
         assert!(OutputNormalizer::fit(&[vec![1.0], vec![1.0, 2.0]]).is_err());
         assert!(OutputNormalizer::fit(&[vec![f64::NAN]]).is_err());
         assert!(OutputNormalizer::from_parts(vec![0.0], vec![-1.0]).is_err());

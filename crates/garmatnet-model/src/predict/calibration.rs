@@ -273,16 +273,18 @@ impl FabricCalibration {
                  calibration stays within"
             ));
         }
-        validate_inputs(&Pose::zero(), &self.omega)
+        Ok(validate_inputs(&Pose::zero(), &self.omega)?)
     }
 
     /// Writes the calibration as JSON, atomically (a temporary file, then a rename).
     ///
     /// # Errors
-    /// [`Error::Core`] (I/O) if the file cannot be written.
+    /// [`Error::Core`] (I/O) if the file cannot be written; [`Error::Serialize`] (a bug)
+    /// if the calibration cannot be written as JSON.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let json = serde_json::to_vec_pretty(self).map_err(|e| {
-            garmatnet_core::Error::InvalidArgument(format!("serialising a calibration: {e}"))
+        let json = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
+            what: "a fabric calibration",
+            source,
         })?;
         Ok(garmatnet_core::write_bytes_atomic(path, &json)?)
     }
@@ -326,8 +328,9 @@ impl Predictor {
     /// # Errors
     /// [`Error::Calibration`] if the model file records no training fabrics (models trained
     /// before they were recorded) or the fitted weights' absolute values sum to more than
-    /// [`MAX_ABSOLUTE_WEIGHT_SUM`] (raise the ridge weight); [`Error::Core`] for an empty
-    /// name, no references, an invalid material, pose or settings, or a drape with the wrong vertex count or a non-finite coordinate;
+    /// [`MAX_ABSOLUTE_WEIGHT_SUM`] (raise the ridge weight); [`Error::EmptyInput`] for an
+    /// empty name or no references; [`Error::Core`] for an invalid material, pose or
+    /// settings, or a drape with the wrong vertex count or a non-finite coordinate;
     /// [`Error::NonFiniteOutput`] if the nets produce NaN.
     pub fn calibrate(
         &self,
@@ -339,17 +342,16 @@ impl Predictor {
         settings.validate()?;
         material.validate()?;
         if name.trim().is_empty() {
-            return Err(garmatnet_core::Error::InvalidArgument(
-                "a calibration needs a name (the fabric's, for people); give a non-empty one"
-                    .into(),
-            )
-            .into());
+            return Err(Error::EmptyInput {
+                what: "a calibration",
+                needs: "a name (the fabric's, for people); give a non-empty one",
+            });
         }
         if references.is_empty() {
-            return Err(garmatnet_core::Error::InvalidArgument(
-                "a calibration needs at least one reference drape".into(),
-            )
-            .into());
+            return Err(Error::EmptyInput {
+                what: "a calibration",
+                needs: "at least one reference drape",
+            });
         }
         let omega = material.to_normalized();
         let n = self.vertex_count();
@@ -482,8 +484,9 @@ impl Predictor {
         calibration: &FabricCalibration,
         detail: Detail,
     ) -> Result<GarmentMesh> {
-        let mut meshes =
-            self.predict_calibrated_sequence(std::slice::from_ref(pose), calibration, detail)?;
+        calibration.check_for(self)?;
+        validate_inputs(pose, &calibration.omega)?;
+        let mut meshes = self.calibrated_meshes(std::slice::from_ref(pose), calibration, detail)?;
         Ok(meshes.remove(0))
     }
 
@@ -491,7 +494,8 @@ impl Predictor {
     /// its posed body as [`Predictor::predict`] does.
     ///
     /// # Errors
-    /// As [`Predictor::predict_calibrated`], for the first bad pose.
+    /// As [`Predictor::predict_calibrated`], except that the first unusable pose is
+    /// [`Error::InvalidPose`] (with its index), refused before any prediction.
     pub fn predict_calibrated_sequence(
         &self,
         poses: &[Pose],
@@ -499,6 +503,21 @@ impl Predictor {
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
         calibration.check_for(self)?;
+        for (i, pose) in poses.iter().enumerate() {
+            validate_inputs(pose, &calibration.omega)
+                .map_err(|source| Error::InvalidPose { index: i, source })?;
+        }
+        self.calibrated_meshes(poses, calibration, detail)
+    }
+
+    /// [`Predictor::predict_calibrated_sequence`] for a checked calibration and validated
+    /// poses, a batch at a time.
+    fn calibrated_meshes(
+        &self,
+        poses: &[Pose],
+        calibration: &FabricCalibration,
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
         let mut out = Vec::with_capacity(poses.len());
         for chunk in poses.chunks(crate::predict::predictor::SEQUENCE_BATCH) {
             let meshes = self.calibrated_batch(chunk, calibration, detail)?;
@@ -507,17 +526,14 @@ impl Predictor {
         Ok(out)
     }
 
-    /// The blended prediction of module docs for a batch of poses, before push-out.
+    /// The blended prediction of module docs for a batch of poses, before push-out; the
+    /// caller has validated the poses and the calibration.
     pub(crate) fn calibrated_batch(
         &self,
         poses: &[Pose],
         calibration: &FabricCalibration,
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
-        for (i, pose) in poses.iter().enumerate() {
-            validate_inputs(pose, &calibration.omega)
-                .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("pose {i}: {e}")))?;
-        }
         // Fabrics with no weight add nothing; leaving them out saves their rows.
         let (omegas, weights): (Vec<_>, Vec<_>) = calibration
             .weights()
@@ -823,8 +839,13 @@ mod tests {
         let dev = cpu();
         let bare = test_predictor(small_model(11, None, &dev), &dev);
         let none = p.calibrate("v", &velvet, &[], &settings);
-        assert!(matches!(none, Err(Error::Core(_))), "{none:?}");
+        assert!(matches!(none, Err(Error::EmptyInput { .. })), "{none:?}");
         let reference = [drape_at(&pose, good.clone())];
+        let unnamed = p.calibrate(" ", &velvet, &reference, &settings);
+        assert!(
+            matches!(unnamed, Err(Error::EmptyInput { .. })),
+            "{unnamed:?}"
+        );
         let err = bare
             .calibrate("v", &velvet, &reference, &settings)
             .unwrap_err();

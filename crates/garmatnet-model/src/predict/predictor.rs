@@ -46,15 +46,16 @@ impl std::str::FromStr for Detail {
     /// `full` or `smooth` (case-insensitive).
     ///
     /// # Errors
-    /// [`Error::Core`] (invalid argument) for anything else.
+    /// [`Error::UnknownName`] for anything else.
     fn from_str(s: &str) -> Result<Self> {
         match s.trim().to_ascii_lowercase().as_str() {
             "full" => Ok(Detail::Full),
             "smooth" => Ok(Detail::Smooth),
-            _ => Err(garmatnet_core::Error::InvalidArgument(format!(
-                "unknown detail level `{s}`; use full (both nets) or smooth (the fitting net only)"
-            ))
-            .into()),
+            _ => Err(Error::UnknownName {
+                kind: "detail level",
+                name: s.to_owned(),
+                options: "full (both nets) or smooth (the fitting net only)",
+            }),
         }
     }
 }
@@ -163,8 +164,8 @@ impl Predictor {
     ///
     /// # Errors
     /// [`Error::TemplateMismatch`] if the model was trained for another template;
-    /// [`Error::Core`] (invalid mesh / argument) for faces past the vertices or unusable
-    /// anchors; [`Error::InvalidConfig`] for an inconsistent model.
+    /// [`Error::Core`] (invalid mesh) for faces past the vertices; [`Error::InvalidAnchor`]
+    /// for an unusable anchor; [`Error::InvalidConfig`] for an inconsistent model.
     pub fn new(
         model: GarMatNetModel,
         faces: Vec<[u32; 3]>,
@@ -192,11 +193,10 @@ impl Predictor {
                 .iter()
                 .any(|&(j, w)| j >= JOINT_COUNT || !w.is_finite());
             if a.weights.is_empty() || bad_joint || !a.rest_point.iter().all(|v| v.is_finite()) {
-                return Err(garmatnet_core::Error::InvalidArgument(format!(
-                    "body anchor {i} is unusable: it needs a finite rest point and at least one \
-                     (joint < {JOINT_COUNT}, finite weight) pair"
-                ))
-                .into());
+                return Err(Error::InvalidAnchor {
+                    anchor: i,
+                    joints: JOINT_COUNT,
+                });
             }
         }
         let model = GarMatNetModel {
@@ -466,8 +466,8 @@ impl Predictor {
     /// ```
     ///
     /// # Errors
-    /// As [`Predictor::predict`], at once, for the material or the first non-finite pose
-    /// (the message names its index). A batch that fails later is an error item
+    /// As [`Predictor::predict`], at once, for the material; [`Error::InvalidPose`], at once,
+    /// for the first unusable pose (with its index). A batch that fails later is an error item
     /// ([`SequencePredictions`]).
     pub fn sequence<'a>(
         &'a self,
@@ -476,11 +476,41 @@ impl Predictor {
         detail: Detail,
     ) -> Result<SequencePredictions<'a>> {
         material.validate()?;
-        let normalized = material.to_normalized();
+        self.sequence_normalized(poses, &material.to_normalized(), detail)
+    }
+
+    /// [`Predictor::predict_sequence`] for a normalised material ω (as
+    /// [`Predictor::predict_normalized`] takes it), without a round trip through physical
+    /// units.
+    ///
+    /// # Errors
+    /// As [`Predictor::sequence_normalized`].
+    pub fn predict_sequence_normalized(
+        &self,
+        poses: &[Pose],
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<Vec<GarmentMesh>> {
+        self.sequence_normalized(poses, material, detail)?.collect()
+    }
+
+    /// [`Predictor::sequence`] for a normalised material ω: the meshes predicted a batch of
+    /// [`SEQUENCE_BATCH`] poses at a time as the iterator is advanced.
+    ///
+    /// # Errors
+    /// As [`Predictor::predict_normalized`], at once, for ω outside [0, 1] or not finite;
+    /// [`Error::InvalidPose`], at once, for the first unusable pose (with its index). A batch
+    /// that fails later is an error item ([`SequencePredictions`]).
+    pub fn sequence_normalized<'a>(
+        &'a self,
+        poses: &'a [Pose],
+        material: &[Real; MATERIAL_DIM],
+        detail: Detail,
+    ) -> Result<SequencePredictions<'a>> {
+        let normalized = *material;
         for (i, pose) in poses.iter().enumerate() {
-            validate_inputs(pose, &normalized).map_err(|e| {
-                garmatnet_core::Error::InvalidArgument(format!("pose {i} of the sequence: {e}"))
-            })?;
+            validate_inputs(pose, &normalized)
+                .map_err(|source| Error::InvalidPose { index: i, source })?;
         }
         Ok(SequencePredictions {
             predictor: self,
@@ -610,7 +640,10 @@ impl Predictor {
 }
 
 /// A finite pose and a material inside the unit cube.
-pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> Result<()> {
+pub(crate) fn validate_inputs(
+    pose: &Pose,
+    material: &[Real; MATERIAL_DIM],
+) -> garmatnet_core::Result<()> {
     pose.validate()?;
     ensure_finite("normalised material coordinates", material.iter().copied())?;
     if let Some((i, &v)) = material
@@ -624,8 +657,7 @@ pub(crate) fn validate_inputs(pose: &Pose, material: &[Real; MATERIAL_DIM]) -> R
             min: 0.0,
             max: 1.0,
             hint: "; normalise the material with Material::to_normalized".into(),
-        }
-        .into());
+        });
     }
     Ok(())
 }
@@ -644,6 +676,10 @@ mod tests {
         }
         assert_eq!(" SMOOTH ".parse::<Detail>().ok(), Some(Detail::Smooth));
         let err = "wrinkly".parse::<Detail>().expect_err("unknown level");
+        assert!(
+            matches!(&err, Error::UnknownName { kind: "detail level", name, .. } if name == "wrinkly"),
+            "{err}"
+        );
         assert!(err.to_string().contains("use full"), "{err}");
     }
 
@@ -845,9 +881,10 @@ mod tests {
         );
         let mut anchors = test_anchors();
         anchors[3].weights.clear();
-        assert!(
-            Predictor::new(model(), test_faces(), anchors, "test-template", sk(), &dev).is_err()
-        );
+        assert!(matches!(
+            Predictor::new(model(), test_faces(), anchors, "test-template", sk(), &dev),
+            Err(Error::InvalidAnchor { anchor: 3, .. })
+        ));
     }
 
     /// GPU (wgpu) predictions equal CPU predictions, for both pose encodings; CI runs it on
@@ -935,6 +972,14 @@ mod tests {
                 .unwrap()
                 .is_empty()
         );
+        // ω given directly predicts the same sequence, and out-of-range ω is refused.
+        let direct = p
+            .predict_sequence_normalized(&poses, &silk.to_normalized(), Detail::Full)
+            .unwrap();
+        assert_eq!(direct, sequence);
+        let mut bad = silk.to_normalized();
+        bad[2] = 1.5;
+        assert!(p.sequence_normalized(&poses, &bad, Detail::Full).is_err());
     }
 
     #[test]
@@ -974,6 +1019,10 @@ mod tests {
         let mut poses = poses;
         poses[SEQUENCE_BATCH + 2].set_joint(4, Vec3::new(0.0, f64::INFINITY, 0.0));
         let err = p.sequence(&poses, &denim, Detail::Full).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidPose { index, .. } if index == SEQUENCE_BATCH + 2),
+            "{err}"
+        );
         assert!(
             err.to_string()
                 .contains(&format!("pose {} of the sequence", SEQUENCE_BATCH + 2)),

@@ -127,7 +127,7 @@ pub struct GenerateReport {
 /// The dataset spec `config` describes (template, body, materials, poses, settings).
 ///
 /// # Errors
-/// [`Error::Core`] if the T-shirt cannot be built or the settings cannot be serialised.
+/// [`Error::SettingsJson`] if the solver settings cannot be serialised (a bug).
 pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<DatasetSpec> {
     Ok(DatasetSpec {
         template: TemplateInfo::of(garment),
@@ -146,7 +146,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
         poses: config.poses.clone(),
         frames: config.frames.clone(),
         solver: serde_json::to_value(&config.sequence)
-            .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("solver settings: {e}")))?,
+            .map_err(|source| Error::SettingsJson { source })?,
         smoothing: SmoothingInfo {
             lambda: config.smoothing.lambda,
             iterations: config.smoothing.iterations as u32,
@@ -165,7 +165,8 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
 /// # Errors
 /// [`Error::Interrupted`]; dataset errors (lock held by another process, a different
 /// existing dataset in `out`, unwritable directory); settings that fail
-/// [`SequenceSettings::validate`], before anything is written; solver errors.
+/// [`SequenceSettings::validate`], before anything is written; [`Error::ThreadPool`] if the
+/// `threads` workers cannot be started; solver errors.
 pub fn generate_dataset(
     config: &GenerateConfig,
     on_progress: &(dyn Fn(GenerateEvent) + Sync),
@@ -271,7 +272,10 @@ pub fn generate_dataset(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(config.threads)
         .build()
-        .map_err(|e| garmatnet_core::Error::InvalidArgument(format!("thread pool: {e}")))?;
+        .map_err(|source| Error::ThreadPool {
+            threads: config.threads,
+            source,
+        })?;
     let results: Vec<Result<(usize, usize, f64)>> = match config.protocol {
         // One material per task: rayon may otherwise hand a worker a run of several
         // materials to walk sequentially while the other workers sit idle at the end

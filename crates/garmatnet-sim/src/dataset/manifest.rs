@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Pose, Result, TemplateInfo};
 use serde::{Deserialize, Serialize};
 
+use crate::error::SpecField;
 use crate::solver::canonical::DrapeProtocol;
 
 /// The on-disk format version this crate reads and writes.
@@ -162,34 +163,55 @@ impl DatasetSpec {
     /// Checks that the spec is self-consistent.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for no materials or poses, a zero vertex count, duplicate
-    /// material names, non-finite ω, an ω outside the material bounds or an
-    /// `omega_normalized` that is not its ω's normalised coordinates; [`Error::Mismatch`] if `frames` and `poses` differ in
-    /// length.
-    pub fn validate(&self) -> Result<()> {
-        if self.materials.is_empty() || self.poses.is_empty() || self.template.vertex_count == 0 {
-            return Err(Error::InvalidArgument(format!(
-                "a dataset needs at least one material, one pose and one template vertex \
-                 (got {} materials, {} poses, {} vertices)",
-                self.materials.len(),
-                self.poses.len(),
-                self.template.vertex_count
-            )));
+    /// [`crate::Error::InvalidSpec`] for no materials or poses or a zero vertex count
+    /// ([`SpecField::Materials`], [`SpecField::Poses`] or [`SpecField::Template`], whichever is
+    /// empty first), an invalid pose ([`SpecField::Poses`] with its index), or a material
+    /// ([`SpecField::Materials`] with its index) whose name appears twice, whose ω is not
+    /// finite or outside the material bounds, or whose `omega_normalized` is not its ω's
+    /// normalised coordinates; [`Error::Mismatch`] if `frames` and `poses` differ in length.
+    pub fn validate(&self) -> crate::Result<()> {
+        let invalid = |field, entry, problem| crate::Error::InvalidSpec {
+            field,
+            entry,
+            problem,
+        };
+        let empty = [
+            (self.materials.is_empty(), SpecField::Materials),
+            (self.poses.is_empty(), SpecField::Poses),
+            (self.template.vertex_count == 0, SpecField::Template),
+        ]
+        .into_iter()
+        .find_map(|(empty, field)| empty.then_some(field));
+        if let Some(field) = empty {
+            return Err(invalid(
+                field,
+                None,
+                format!(
+                    "a dataset needs at least one material, one pose and one template vertex \
+                     (got {} materials, {} poses, {} vertices)",
+                    self.materials.len(),
+                    self.poses.len(),
+                    self.template.vertex_count
+                ),
+            ));
         }
         if self.frames.len() != self.poses.len() {
             return Err(Error::Mismatch {
                 what: "dataset frame indices (one per pose)".into(),
                 expected: self.poses.len().to_string(),
                 got: self.frames.len().to_string(),
-            });
+            }
+            .into());
         }
         for (i, pose) in self.poses.iter().enumerate() {
-            pose.validate()
-                .map_err(|e| Error::InvalidArgument(format!("dataset pose {i}: {e}")))?;
+            pose.validate().map_err(|e| {
+                invalid(SpecField::Poses, Some(i), format!("dataset pose {i}: {e}"))
+            })?;
         }
         for (i, m) in self.materials.iter().enumerate() {
+            let bad_material = |problem| invalid(SpecField::Materials, Some(i), problem);
             if self.materials[..i].iter().any(|o| o.name == m.name) {
-                return Err(Error::InvalidArgument(format!(
+                return Err(bad_material(format!(
                     "material name `{}` appears twice; names must be unique",
                     m.name
                 )));
@@ -199,7 +221,7 @@ impl DatasetSpec {
                 .chain(&m.omega_normalized)
                 .any(|v| !v.is_finite())
             {
-                return Err(Error::InvalidArgument(format!(
+                return Err(bad_material(format!(
                     "material `{}` has a non-finite parameter",
                     m.name
                 )));
@@ -207,16 +229,16 @@ impl DatasetSpec {
             // The nets train on `omega_normalized` and a predictor normalises `omega`: the
             // two must be one fabric, inside the bounds a model can be asked about.
             let material = garmatnet_core::Material::from_array(m.omega)
-                .map_err(|e| Error::InvalidArgument(format!("material `{}`: {e}", m.name)))?;
+                .map_err(|e| bad_material(format!("material `{}`: {e}", m.name)))?;
             let expected = material.to_normalized();
-            if let Some(i) =
-                (0..expected.len()).find(|&i| (expected[i] - m.omega_normalized[i]).abs() > 1e-9)
+            if let Some(k) =
+                (0..expected.len()).find(|&k| (expected[k] - m.omega_normalized[k]).abs() > 1e-9)
             {
-                return Err(Error::InvalidArgument(format!(
-                    "material `{}`: omega_normalized[{i}] = {} is not its omega's normalised \
+                return Err(bad_material(format!(
+                    "material `{}`: omega_normalized[{k}] = {} is not its omega's normalised \
                      coordinate {} (n = (ln v - ln lo) / (ln hi - ln lo)): the manifest was edited or \
                      written by other code; restore it, or write both from one Material",
-                    m.name, m.omega_normalized[i], expected[i]
+                    m.name, m.omega_normalized[k], expected[k]
                 )));
             }
         }

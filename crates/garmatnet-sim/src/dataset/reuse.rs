@@ -39,7 +39,7 @@ pub struct ImportReport {
 ///   but its material list (template, body, poses or frames, solver settings, smoothing: its
 ///   samples would be walks another dataset does not make); [`Error::Mismatch`] if it lists
 ///   a material under the destination's name with another ω;
-/// - [`Error::InvalidArgument`] if the two share no material at all (a shard that takes
+/// - [`crate::Error::NothingToReuse`] if the two share no material at all (a shard that takes
 ///   none of the shared ones imports nothing, so one command serves every shard);
 /// - as [`DatasetWriter::write_sample`] for the destination.
 pub fn import_samples(
@@ -88,12 +88,9 @@ pub fn import_samples(
         }
     }
     if !shared {
-        return Err(Error::InvalidArgument(format!(
-            "the dataset to reuse, {}, has none of this dataset's materials (same name and ω): \
-             nothing to reuse",
-            source.display()
-        ))
-        .into());
+        return Err(crate::Error::NothingToReuse {
+            dataset: source.to_owned(),
+        });
     }
     let mut report = ImportReport {
         shared_materials: map.iter().flatten().count(),
@@ -237,9 +234,14 @@ mod tests {
             let mut spec = extended_spec();
             change(&mut spec);
             let w = DatasetWriter::open(&dst, spec).unwrap();
-            let err = import_samples(&w, &src, Shard::ALL)
-                .unwrap_err()
-                .to_string();
+            let err = import_samples(&w, &src, Shard::ALL).unwrap_err();
+            if expected == "none of this dataset's materials" {
+                assert!(
+                    matches!(&err, crate::Error::NothingToReuse { dataset } if *dataset == src),
+                    "{err}"
+                );
+            }
+            let err = err.to_string();
             assert!(err.contains(expected), "{expected}: {err}");
             assert!(err.contains("src"), "names the source: {err}");
             assert_eq!(w.done_count(), 0);

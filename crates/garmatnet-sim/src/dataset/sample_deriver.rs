@@ -8,7 +8,7 @@ use garmatnet_core::{
 
 use crate::dataset::manifest::DatasetSpec;
 use crate::dataset::sample_arrays::SampleArrays;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, SpecField};
 
 /// The name datasets record for the procedural body.
 pub const BODY_NAME: &str = "capsule-smpl-neutral";
@@ -58,8 +58,9 @@ impl SampleDeriver {
     ///
     /// # Errors
     /// [`Error::Core`] with [`garmatnet_core::Error::Mismatch`] if the body is not
-    /// [`BODY_NAME`] or the rebuilt template's vertex count or hash differs from the spec's,
-    /// [`garmatnet_core::Error::InvalidArgument`] for an unknown resolution or weighting.
+    /// [`BODY_NAME`] or the rebuilt template's vertex count or hash differs from the spec's;
+    /// [`Error::InvalidSpec`] (field [`SpecField::Smoothing`]) for an unknown smoothing
+    /// weighting.
     pub fn for_spec(spec: &DatasetSpec) -> Result<Self> {
         let mismatch = |what: &str, expected: String, got: String| {
             Error::Core(garmatnet_core::Error::Mismatch {
@@ -78,11 +79,13 @@ impl SampleDeriver {
         let resolution: Resolution = spec.template.resolution;
         let weights: LaplacianWeights =
             serde_json::from_value(serde_json::Value::String(spec.smoothing.weights.clone()))
-                .map_err(|_| {
-                    garmatnet_core::Error::InvalidArgument(format!(
+                .map_err(|_| Error::InvalidSpec {
+                    field: SpecField::Smoothing,
+                    entry: None,
+                    problem: format!(
                         "dataset's smoothing weights `{}`: expected `uniform` or `cotangent`",
                         spec.smoothing.weights
-                    ))
+                    ),
                 })?;
         let smoothing = SmoothingSettings {
             lambda: spec.smoothing.lambda,
@@ -143,5 +146,31 @@ impl SampleDeriver {
             smoothed: to_f32(&smooth),
             body: to_f32(&self.garment.body_points(&transforms)),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::writer::tests::tiny_spec;
+
+    #[test]
+    fn a_spec_with_unknown_smoothing_weights_is_refused_by_field() {
+        let mut spec = tiny_spec();
+        spec.body.name = BODY_NAME.to_owned();
+        spec.smoothing.weights = "harmonic".into();
+        let err = SampleDeriver::for_spec(&spec).err().unwrap();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidSpec {
+                    field: SpecField::Smoothing,
+                    entry: None,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("`harmonic`"), "{err}");
     }
 }

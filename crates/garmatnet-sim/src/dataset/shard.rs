@@ -26,13 +26,13 @@ impl Shard {
     /// Shard `index` of `count`.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] unless `index < count`.
-    pub fn new(index: usize, count: usize) -> Result<Self> {
+    /// [`crate::Error::InvalidShard`] unless `index < count`.
+    pub fn new(index: usize, count: usize) -> crate::Result<Self> {
         if index >= count {
-            return Err(Error::InvalidArgument(format!(
-                "shard {index}/{count}: the index must be below the count (0/{count} .. {}/{count})",
-                count.saturating_sub(1)
-            )));
+            return Err(crate::Error::InvalidShard {
+                text: format!("{index}/{count}"),
+                count: Some(count),
+            });
         }
         Ok(Self { index, count })
     }
@@ -40,15 +40,16 @@ impl Shard {
     /// Parses `"i/k"`, as given on the command line.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for anything but two integers with `i < k`.
-    pub fn parse(text: &str) -> Result<Self> {
-        let bad =
-            || Error::InvalidArgument(format!("shard `{text}` is not of the form i/k, e.g. 0/4"));
-        let (i, k) = text.split_once('/').ok_or_else(bad)?;
-        Self::new(
-            i.trim().parse().map_err(|_| bad())?,
-            k.trim().parse().map_err(|_| bad())?,
-        )
+    /// [`crate::Error::InvalidShard`] for anything but two integers with `i < k`.
+    pub fn parse(text: &str) -> crate::Result<Self> {
+        let bad = |count| crate::Error::InvalidShard {
+            text: text.to_owned(),
+            count,
+        };
+        let (i, k) = text.split_once('/').ok_or_else(|| bad(None))?;
+        let count: usize = k.trim().parse().map_err(|_| bad(None))?;
+        let index = i.trim().parse().map_err(|_| bad(Some(count)))?;
+        Self::new(index, count).map_err(|_| bad(Some(count)))
     }
 
     /// Whether this shard computes the samples of `material`.
@@ -82,7 +83,7 @@ const DERIVED_FILES: [&str; 2] = ["smoothed.npy", "body.npy"];
 /// [`DatasetWriter::write_sample`], marker last.
 ///
 /// # Errors
-/// [`garmatnet_core::Error::InvalidArgument`] if a source is `dest` itself; as
+/// [`crate::Error::MergeIntoSource`] if a source is `dest` itself; as
 /// [`DatasetWriter::open`] for `dest` and each source's manifest (a source with a
 /// different spec is refused before anything is copied); [`Error::Io`] if copying fails;
 /// for slim samples, [`SampleDeriver::for_spec`]'s errors and [`Error::Parse`] for a
@@ -99,12 +100,7 @@ pub fn merge_shards(
             .iter()
             .find(|src| std::fs::canonicalize(src).is_ok_and(|s| s == dest_path))
     {
-        return Err(garmatnet_core::Error::InvalidArgument(format!(
-            "{} is both a source and the destination of the merge: merge the shards \
-                 into a new or another directory",
-            src.display()
-        ))
-        .into());
+        return Err(crate::Error::MergeIntoSource { path: src.clone() });
     }
     // Every source is read before `dest` is created, so a missing source leaves nothing.
     let manifests = sources
@@ -206,9 +202,12 @@ mod tests {
         drop(w);
         // Into itself (also spelled another way): refused, every sample left in place.
         let itself = merged.join("..").join("merged");
-        let err = merge_shards(&merged, &[shards[0].clone(), itself], spec)
-            .unwrap_err()
-            .to_string();
+        let err = merge_shards(&merged, &[shards[0].clone(), itself.clone()], spec).unwrap_err();
+        assert!(
+            matches!(&err, crate::Error::MergeIntoSource { path } if *path == itself),
+            "{err}"
+        );
+        let err = err.to_string();
         assert!(err.contains("both a source and the destination"), "{err}");
         assert_eq!(Manifest::read(&merged).unwrap().samples.len(), 12);
         assert_eq!(scan_samples(&merged, &tiny_spec()).unwrap().len(), 12);
@@ -246,12 +245,27 @@ mod tests {
     #[test]
     fn shard_parsing() {
         assert_eq!(Shard::parse("1/4").unwrap(), Shard { index: 1, count: 4 });
-        for bad in ["4/4", "1", "a/b", "0/0", "-1/3"] {
+        for (bad, count) in [
+            ("4/4", Some(4)),
+            ("1", None),
+            ("a/b", None),
+            ("0/0", Some(0)),
+            ("-1/3", Some(3)),
+        ] {
             assert!(
-                matches!(Shard::parse(bad), Err(Error::InvalidArgument(_))),
+                matches!(
+                    Shard::parse(bad),
+                    Err(crate::Error::InvalidShard { ref text, count: c }) if text == bad && c == count
+                ),
                 "{bad}"
             );
         }
+        assert!(matches!(
+            Shard::new(2, 2),
+            Err(crate::Error::InvalidShard { count: Some(2), .. })
+        ));
+        let err = Shard::parse("4/4").unwrap_err().to_string();
+        assert!(err.contains("0/4 .. 3/4"), "{err}");
         let s = Shard::new(2, 3).unwrap();
         assert_eq!(
             (0..9)

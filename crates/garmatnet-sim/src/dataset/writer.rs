@@ -41,6 +41,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{Error, OutputLock, Result};
 
 use crate::dataset::manifest::{
@@ -145,7 +146,7 @@ impl DatasetWriter {
     /// have exactly this spec; its finished samples are recovered from their markers.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for an inconsistent spec; [`Error::Io`] if the directory is
+    /// [`crate::Error::InvalidSpec`] for an inconsistent spec; [`Error::Io`] if the directory is
     /// not writable, or with kind `WouldBlock` if another process (or writer) holds its lock;
     /// [`crate::Error::SpecMismatch`] if the existing manifest has a different revision,
     /// protocol, template, body, materials, poses, frames, solver or smoothing settings;
@@ -215,23 +216,24 @@ impl DatasetWriter {
     /// `arrays.simulated`, `arrays.smoothed`: `[vertex_count, 3]`; `arrays.body`: `[m, 3]`.
     ///
     /// # Errors
-    /// [`Error::InvalidArgument`] for indices outside the dataset or non-finite stats;
-    /// [`Error::Mismatch`] / [`Error::NonFinite`] (naming the sample) for bad arrays;
-    /// [`Error::Io`] if a file cannot be written.
+    /// [`crate::Error::SampleOutOfRange`] for indices outside the dataset; [`Error::NonFinite`]
+    /// (naming the sample and the stat) for non-finite stats; [`Error::Mismatch`] /
+    /// [`Error::NonFinite`] (naming the sample) for bad arrays; [`Error::Io`] if a file cannot
+    /// be written.
     pub fn write_sample(
         &self,
         material: usize,
         pose: usize,
         arrays: &SampleArrays,
         stats: SampleStats,
-    ) -> Result<()> {
+    ) -> crate::Result<()> {
         if material >= self.spec.materials.len() || pose >= self.spec.poses.len() {
-            return Err(Error::InvalidArgument(format!(
-                "sample (material {material}, pose {pose}) is outside the dataset's {} \
-                 materials x {} poses",
-                self.spec.materials.len(),
-                self.spec.poses.len()
-            )));
+            return Err(crate::Error::SampleOutOfRange {
+                material,
+                pose,
+                materials: self.spec.materials.len(),
+                poses: self.spec.poses.len(),
+            });
         }
         let stem = sample_stem(material, pose);
         let numbers = [
@@ -241,11 +243,13 @@ impl DatasetWriter {
             stats.max_strain,
             stats.wall_time_ms,
         ];
-        if numbers.iter().any(|v| !v.is_finite()) {
-            return Err(Error::InvalidArgument(format!(
-                "sample {stem}: solver stats must be finite, got {stats:?}"
-            )));
-        }
+        ensure_finite(
+            &format!(
+                "solver stats of sample {stem} (residual, max_penetration_m, \
+                 max_depth_before_projection_m, max_strain, wall_time_ms)"
+            ),
+            numbers,
+        )?;
         arrays.validate(&stem, self.spec.template.vertex_count)?;
         let sample_dir = samples_dir(&self.dir).join(&stem);
         std::fs::create_dir_all(&sample_dir).map_err(|e| Error::io(&sample_dir, e))?;
@@ -253,7 +257,7 @@ impl DatasetWriter {
         let marker = marker_path(&self.dir, &stem);
         match std::fs::remove_file(&marker) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(Error::io(&marker, e));
+                return Err(Error::io(&marker, e).into());
             }
             _ => {}
         }
@@ -536,15 +540,48 @@ pub(crate) mod tests {
         assert!(tiny_spec().validate().is_ok());
         let mut inconsistent = tiny_spec();
         inconsistent.materials[1].omega_normalized = [5.0, -3.0, 0.3, 0.4, 0.5, 0.6];
-        let err = inconsistent.validate().unwrap_err().to_string();
+        let err = inconsistent.validate().unwrap_err();
+        let bad_material = |err: &crate::Error, index: usize| {
+            matches!(
+                err,
+                crate::Error::InvalidSpec {
+                    field: SpecField::Materials,
+                    entry: Some(i),
+                    ..
+                } if *i == index
+            )
+        };
+        assert!(bad_material(&err, 1), "{err}");
+        let err = err.to_string();
         assert!(
             err.contains("fabric1") && err.contains("omega_normalized[0]"),
             "{err}"
         );
         let mut out_of_bounds = tiny_spec();
         out_of_bounds.materials[2].omega[5] = 1e6;
-        let err = out_of_bounds.validate().unwrap_err().to_string();
-        assert!(err.contains("fabric2"), "{err}");
+        let err = out_of_bounds.validate().unwrap_err();
+        assert!(bad_material(&err, 2), "{err}");
+        assert!(err.to_string().contains("fabric2"), "{err}");
+        let mut twice = tiny_spec();
+        twice.materials[2].name = twice.materials[0].name.clone();
+        let err = twice.validate().unwrap_err();
+        assert!(bad_material(&err, 2), "{err}");
+        assert!(err.to_string().contains("appears twice"), "{err}");
+        let mut no_poses = tiny_spec();
+        no_poses.poses.clear();
+        no_poses.frames.clear();
+        let err = no_poses.validate().unwrap_err();
+        assert!(
+            matches!(
+                err,
+                crate::Error::InvalidSpec {
+                    field: SpecField::Poses,
+                    entry: None,
+                    ..
+                }
+            ),
+            "{err}"
+        );
     }
 
     #[test]
@@ -726,24 +763,33 @@ pub(crate) mod tests {
         let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
         assert!(matches!(
             w.write_sample(3, 0, &arrays(0, 0), stats(0.0)),
-            Err(Error::InvalidArgument(_))
+            Err(crate::Error::SampleOutOfRange {
+                material: 3,
+                pose: 0,
+                materials: 3,
+                poses: 4
+            })
         ));
         let mut short = arrays(0, 0);
         short.simulated.pop();
         assert!(matches!(
             w.write_sample(0, 0, &short, stats(0.0)),
-            Err(Error::Mismatch { .. })
+            Err(crate::Error::Core(Error::Mismatch { .. }))
         ));
         let mut nan = arrays(0, 0);
         nan.body[0][1] = f32::NAN;
         assert!(matches!(
             w.write_sample(0, 0, &nan, stats(0.0)),
-            Err(Error::NonFinite { .. })
+            Err(crate::Error::Core(Error::NonFinite { .. }))
         ));
-        assert!(matches!(
-            w.write_sample(0, 0, &arrays(0, 0), stats(f64::NAN)),
-            Err(Error::InvalidArgument(_))
-        ));
+        let err = w
+            .write_sample(0, 0, &arrays(0, 0), stats(f64::NAN))
+            .unwrap_err();
+        assert!(
+            matches!(&err, crate::Error::Core(Error::NonFinite { what, index: 0 })
+                if what.contains("m000_p0000")),
+            "{err}"
+        );
         assert_eq!(w.done_count(), 0);
         assert_eq!(
             std::fs::read_dir(samples_dir(dir.path())).unwrap().count(),

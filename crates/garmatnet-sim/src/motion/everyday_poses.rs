@@ -6,9 +6,9 @@
 //! ([`crate::SelfIntersection`]: an arm presses at most 3 cm into the torso). The poses marked symmetric are
 //! their own mirror image exactly ([`Pose::mirrored`]), so their drapes must be too.
 
-use garmatnet_core::{Error as CoreError, Pose, Real, Vec3};
+use garmatnet_core::{Pose, Real, Vec3};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::motion::arm_placement::{ArmPlacement, Side};
 
 /// One pose of the everyday suite.
@@ -159,18 +159,15 @@ pub fn everyday_pose_names() -> Vec<&'static str> {
 /// The everyday pose called `name`.
 ///
 /// # Errors
-/// [`CoreError::InvalidArgument`] (wrapped) for an unknown name, listing the known ones.
+/// [`Error::UnknownEverydayPose`] for an unknown name, listing the known ones.
 pub fn everyday_pose(name: &str) -> Result<Pose> {
     everyday_poses()
         .into_iter()
         .find(|p| p.name.eq_ignore_ascii_case(name.trim()))
         .map(|p| p.pose)
-        .ok_or_else(|| {
-            CoreError::InvalidArgument(format!(
-                "no everyday pose is called `{name}`; the suite has {}",
-                everyday_pose_names().join(", ")
-            ))
-            .into()
+        .ok_or_else(|| Error::UnknownEverydayPose {
+            name: name.to_owned(),
+            known: everyday_pose_names(),
         })
 }
 
@@ -212,8 +209,13 @@ mod tests {
             }
         }
         assert_eq!(everyday_pose("Hands-On-Hips").unwrap(), suite[3].pose);
-        let err = everyday_pose("cartwheel").unwrap_err().to_string();
-        assert!(err.contains("arms-at-sides"), "{err}");
+        let err = everyday_pose("cartwheel").unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownEverydayPose { name, known }
+                if name == "cartwheel" && known.contains(&"arms-at-sides")),
+            "{err}"
+        );
+        assert!(err.to_string().contains("arms-at-sides"), "{err}");
     }
 
     #[test]

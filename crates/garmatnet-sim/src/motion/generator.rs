@@ -20,6 +20,7 @@
 //! from its nearest training frame against a pose spread of about 1.1, the older
 //! [`MotionPace::Gentle`] only about 0.09.
 
+use crate::error::StepParameter;
 use crate::motion::arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 use garmatnet_core::{
     Error, JOINT_COUNT, JOINT_NAMES, JointLimits, POSE_DIM, Pose, Real, Result, SplitMix64, Vec3,
@@ -159,11 +160,10 @@ impl std::str::FromStr for MotionPace {
         MotionPace::ALL
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| {
-                Error::InvalidArgument(format!(
-                    "unknown motion pace `{s}`: use `brisk` (the default) or `gentle` (datasets \
-                     made before the brisk pace)"
-                ))
+            .ok_or_else(|| Error::UnknownName {
+                kind: "motion pace",
+                name: s.to_owned(),
+                options: "`brisk` (the default) or `gentle` (datasets made before the brisk pace)",
             })
     }
 }
@@ -435,14 +435,15 @@ pub const MIN_STEP_RAD: Real = 1e-4;
 /// (the result is just `[to]` when the poses are already that close).
 ///
 /// # Errors
-/// [`Error::InvalidArgument`] unless `max_step_rad` is finite and at least
-/// [`MIN_STEP_RAD`].
-pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> Result<Vec<Pose>> {
+/// [`crate::Error::StepOutOfRange`] ([`StepParameter::JointTurn`]) unless `max_step_rad` is
+/// finite and at least [`MIN_STEP_RAD`].
+pub fn interpolation_steps(from: &Pose, to: &Pose, max_step_rad: Real) -> crate::Result<Vec<Pose>> {
     if !(max_step_rad.is_finite() && max_step_rad >= MIN_STEP_RAD) {
-        return Err(Error::InvalidArgument(format!(
-            "interpolation step must be a finite number of radians of at least \
-             {MIN_STEP_RAD}, got {max_step_rad}"
-        )));
+        return Err(crate::Error::StepOutOfRange {
+            parameter: StepParameter::JointTurn,
+            value: max_step_rad,
+            min: MIN_STEP_RAD,
+        });
     }
     let total = from.max_joint_angle_to(to);
     // Slerp turns every joint uniformly in t, so n equal steps of t each turn ≤ total / n.
@@ -557,7 +558,12 @@ mod tests {
     fn paces_parse_and_gentle_keeps_the_old_settings() {
         assert_eq!("Brisk".parse::<MotionPace>().unwrap(), MotionPace::Brisk);
         assert_eq!(" gentle".parse::<MotionPace>().unwrap(), MotionPace::Gentle);
-        let err = "fast".parse::<MotionPace>().unwrap_err().to_string();
+        let err = "fast".parse::<MotionPace>().unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownName { kind: "motion pace", name, .. } if name == "fast"),
+            "{err}"
+        );
+        let err = err.to_string();
         assert!(err.contains("brisk") && err.contains("gentle"), "{err}");
         assert_eq!(MotionPace::default().to_string(), "brisk");
         let g = MotionGenerator::with_pace(1, 10, MotionPace::Gentle);
@@ -653,19 +659,20 @@ mod tests {
             prev = s.clone();
         }
         assert_eq!(interpolation_steps(&a, &a, 0.05).unwrap(), vec![a.clone()]);
-        assert!(matches!(
-            interpolation_steps(&a, &b, 0.0),
-            Err(Error::InvalidArgument(_))
-        ));
-        assert!(matches!(
-            interpolation_steps(&a, &b, f64::NAN),
-            Err(Error::InvalidArgument(_))
-        ));
+        let refused = |step: Real| {
+            matches!(
+                interpolation_steps(&a, &b, step),
+                Err(crate::Error::StepOutOfRange {
+                    parameter: StepParameter::JointTurn,
+                    value,
+                    min,
+                }) if min == MIN_STEP_RAD && value.to_bits() == step.to_bits()
+            )
+        };
+        assert!(refused(0.0));
+        assert!(refused(f64::NAN));
         // So small a step would cut the turn into ~10^300 poses: refused, not allocated.
-        assert!(matches!(
-            interpolation_steps(&a, &b, 1e-300),
-            Err(Error::InvalidArgument(_))
-        ));
+        assert!(refused(1e-300));
         assert!(interpolation_steps(&a, &b, MIN_STEP_RAD).is_ok());
     }
 

@@ -29,8 +29,8 @@ pub const EVERYDAY_POSES: &str = "everyday";
 /// [`CoreError::OutOfRange`] for a frame past the sequence or the file;
 /// [`Error::FrameWithoutPoseFile`] for a `frame` without a pose file to pick from (no
 /// `spec`, or a frame number of the built-in motion); the everyday suite's error for an
-/// unknown pose name; the
-/// pose file reader's errors (missing file, malformed content, NaN) otherwise.
+/// unknown pose name; the pose file reader's errors (missing file, malformed content, NaN)
+/// otherwise.
 pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {
     let no_file = |reason: &str| Error::FrameWithoutPoseFile {
         reason: reason.to_owned(),
@@ -173,9 +173,6 @@ pub fn frame_range(text: &str, count: usize, source: &str) -> Result<Range<usize
     }
     Ok(range)
 }
-
-/// `path` with a frame number before its extension, `drape.obj` → `drape.0007.obj`, wide
-/// enough for `last`, so a sequence's files sort in frame order.
 
 #[cfg(test)]
 mod tests {

@@ -62,10 +62,10 @@ impl std::str::FromStr for DrapeProtocol {
         [DrapeProtocol::Canonical, DrapeProtocol::Walk]
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| {
-                garmatnet_core::Error::InvalidArgument(format!(
-                    "unknown drape protocol `{s}`; use canonical or walk"
-                ))
+            .ok_or_else(|| garmatnet_core::Error::UnknownName {
+                kind: "drape protocol",
+                name: s.to_owned(),
+                options: "canonical or walk",
             })
     }
 }
@@ -248,6 +248,31 @@ mod tests {
         let shoulder = garmatnet_core::joint_index("left_shoulder").unwrap();
         pose.set_joint(shoulder, Vec3::new(0.0, 0.0, 0.35));
         pose
+    }
+
+    #[test]
+    fn protocols_parse_by_name_and_others_are_refused_by_kind() {
+        assert_eq!(
+            " Walk".parse::<DrapeProtocol>().unwrap(),
+            DrapeProtocol::Walk
+        );
+        assert_eq!(
+            "canonical".parse::<DrapeProtocol>().unwrap(),
+            DrapeProtocol::Canonical
+        );
+        let err = "dance".parse::<DrapeProtocol>().unwrap_err();
+        assert!(
+            matches!(
+                &err,
+                garmatnet_core::Error::UnknownName {
+                    kind: "drape protocol",
+                    name,
+                    ..
+                } if name == "dance"
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("canonical or walk"), "{err}");
     }
 
     #[test]

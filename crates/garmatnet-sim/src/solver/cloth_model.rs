@@ -4,7 +4,7 @@ use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{Error as CoreError, Real, Vec3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// One linear spring between two vertices (Provot 1995): force `stiffness * (l - rest_length)`
 /// along the segment, resisting both stretch and compression.
@@ -36,8 +36,9 @@ impl ClothModel {
     ///   cloth has no vertex;
     /// - [`CoreError::NonFinite`] for NaN or infinite positions, masses, rest lengths or
     ///   stiffnesses;
-    /// - [`CoreError::OutOfRange`] for a spring index past the vertices, a spring joining a
-    ///   vertex to itself, a non-positive mass or stiffness, or a negative rest length.
+    /// - [`CoreError::OutOfRange`] for a spring index past the vertices, a non-positive mass
+    ///   or stiffness, or a negative rest length;
+    /// - [`Error::DegenerateSpring`] for a spring joining a vertex to itself.
     pub fn new(positions_rest: &[Vec3], springs: &[SpringSpec], masses: &[Real]) -> Result<Self> {
         let n = positions_rest.len();
         if n == 0 || masses.len() != n {
@@ -82,11 +83,10 @@ impl ClothModel {
                 }
             }
             if s.a == s.b {
-                return Err(CoreError::InvalidArgument(format!(
-                    "spring {k} joins vertex {} to itself; remove it",
-                    s.a
-                ))
-                .into());
+                return Err(Error::DegenerateSpring {
+                    spring: k,
+                    vertex: s.a,
+                });
             }
             if s.stiffness <= 0.0 {
                 let what = format!("stiffness of spring {k} (N/m)");
@@ -190,7 +190,6 @@ fn out_of_range(what: String, value: Real, min: Real, max: Real) -> crate::error
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::Error;
 
     fn two_vertices() -> Vec<Vec3> {
         vec![Vec3::zeros(), Vec3::x()]
@@ -241,7 +240,13 @@ mod tests {
         );
         let e = ClothModel::new(&two_vertices(), &[spring(1, 1, 10.0)], &[1.0, 1.0]).unwrap_err();
         assert!(
-            matches!(e, Error::Core(CoreError::InvalidArgument(_))),
+            matches!(
+                e,
+                Error::DegenerateSpring {
+                    spring: 0,
+                    vertex: 1
+                }
+            ),
             "{e}"
         );
     }

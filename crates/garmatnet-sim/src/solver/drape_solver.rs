@@ -456,9 +456,13 @@ impl DrapeSolver {
     }
 }
 
-/// The RMS and the largest `|f_i| / (m_i g)` over free vertices, for net forces
-/// `f = -gradient` (gradient zero on pinned vertices).
-fn force_residual(
+/// The solver's stopping measure: the RMS and the largest `|f_i| / (m_i g)` over the free
+/// vertices (`is_pinned[i]` false), for net forces `f = -gradient`. [`DrapeSettings`]'s
+/// residual tolerances are in these units.
+///
+/// [`DrapeSettings`]: crate::DrapeSettings
+#[must_use]
+pub fn force_residual(
     gradient: &[Vec3],
     masses: &[Real],
     is_pinned: &[bool],

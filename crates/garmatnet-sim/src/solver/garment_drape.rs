@@ -8,7 +8,7 @@ use garmatnet_core::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::error::Result;
+use crate::error::{Error, Result, StepParameter};
 use crate::motion::generator::{MIN_STEP_RAD, equal_steps, interpolation_steps};
 use crate::solver::cloth_model::{ClothModel, SpringSpec};
 use crate::solver::drape_settings::DrapeSettings;
@@ -186,8 +186,9 @@ fn is_zero(x: &Real) -> bool {
 /// `max_step_rad` steps, and the result never has more steps than they.
 ///
 /// # Errors
-/// [`CoreError::InvalidArgument`] for a `max_step_rad` that is not positive and finite, or a
-/// `max_surface_step` that is negative or not finite.
+/// [`Error::StepOutOfRange`] for a `max_step_rad` that is not finite or below
+/// [`MIN_STEP_RAD`] ([`StepParameter::JointTurn`]), or a `max_surface_step` that is negative
+/// or not finite ([`StepParameter::SurfaceTravel`]).
 pub fn surface_steps(
     body: &CapsuleBody,
     from: &Pose,
@@ -198,11 +199,11 @@ pub fn surface_steps(
 ) -> Result<Vec<Pose>> {
     let fine = interpolation_steps(from, to, max_step_rad)?;
     if !(max_surface_step.is_finite() && max_surface_step >= 0.0) {
-        return Err(CoreError::InvalidArgument(format!(
-            "max_surface_step must be a non-negative number of metres (0 turns it off), got \
-             {max_surface_step}"
-        ))
-        .into());
+        return Err(Error::StepOutOfRange {
+            parameter: StepParameter::SurfaceTravel,
+            value: max_surface_step,
+            min: 0.0,
+        });
     }
     if max_surface_step == 0.0 || fine.len() == 1 {
         return Ok(fine);
@@ -444,8 +445,9 @@ pub struct SequenceResume {
 ///
 /// # Errors
 /// As [`cloth_from_garment`] and [`DrapeSolver::drape`]; settings that fail
-/// [`SequenceSettings::validate`] are [`CoreError::OutOfRange`]; any error of `on_sample`
-/// stops the walk and is returned.
+/// [`SequenceSettings::validate`] are [`CoreError::OutOfRange`]; [`Error::InvalidResume`] for
+/// a `resume` whose `next` is not a pose from 1 to `poses.len()` or whose positions are not
+/// one per garment vertex; any error of `on_sample` stops the walk and is returned.
 pub fn drape_sequence(
     garment: &Garment,
     body: &CapsuleBody,
@@ -482,14 +484,12 @@ pub fn drape_sequence(
         }
         Some(r) => {
             if r.next == 0 || r.next > poses.len() || r.positions.len() != garment.vertex_count() {
-                return Err(CoreError::InvalidArgument(format!(
-                    "cannot resume at pose {} of {} with {} positions for a {}-vertex garment",
-                    r.next,
-                    poses.len(),
-                    r.positions.len(),
-                    garment.vertex_count()
-                ))
-                .into());
+                return Err(Error::InvalidResume {
+                    next: r.next,
+                    poses: poses.len(),
+                    positions: r.positions.len(),
+                    vertices: garment.vertex_count(),
+                });
             }
             (r.positions, poses[r.next - 1].clone(), r.next)
         }
@@ -622,5 +622,77 @@ mod tests {
         let mut bad_drape = SequenceSettings::default();
         bad_drape.drape.max_iterations = 0;
         refused(bad_drape, "max_iterations");
+    }
+
+    #[test]
+    fn step_sizes_out_of_range_are_typed_errors() {
+        let body = CapsuleBody::smpl_neutral();
+        let from = Pose::zero();
+        let mut to = Pose::zero();
+        to.set_joint(
+            garmatnet_core::joint_index("left_shoulder").unwrap(),
+            Vec3::new(0.0, 0.0, 0.35),
+        );
+        let points = [Vec3::new(0.3, 0.3, 0.0)];
+        for surface in [-0.01, Real::NAN, Real::INFINITY] {
+            let err = surface_steps(&body, &from, &to, &points, 0.05, surface).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    Error::StepOutOfRange {
+                        parameter: StepParameter::SurfaceTravel,
+                        value,
+                        ..
+                    } if value.to_bits() == surface.to_bits()
+                ),
+                "{err}"
+            );
+            assert!(err.to_string().contains("max_surface_step"), "{err}");
+        }
+        let err = surface_steps(&body, &from, &to, &points, 0.0, 0.01).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::StepOutOfRange {
+                    parameter: StepParameter::JointTurn,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(surface_steps(&body, &from, &to, &points, 0.05, 0.0).is_ok());
+    }
+
+    #[test]
+    fn a_resume_outside_the_walk_is_a_typed_error() {
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(garmatnet_core::Resolution::Coarse, &body).unwrap();
+        let material = Material::preset("Cotton Poplin").unwrap();
+        let poses = [Pose::zero()];
+        let n = garment.vertex_count();
+        for (next, positions) in [(0, n), (2, n), (1, n - 1)] {
+            let resume = SequenceResume {
+                next,
+                positions: vec![Vec3::zeros(); positions],
+            };
+            let err = drape_sequence(
+                &garment,
+                &body,
+                &material,
+                &poses,
+                &SequenceSettings::default(),
+                Some(resume),
+                |_, _, _| Ok(()),
+            )
+            .unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    Error::InvalidResume { next: got_next, poses: 1, positions: got, vertices }
+                        if got_next == next && got == positions && vertices == n
+                ),
+                "{err}"
+            );
+        }
     }
 }

@@ -48,7 +48,7 @@ impl MirrorMap {
     /// # Errors
     /// [`Error::NotMirrorSymmetric`] naming the first vertex whose mirror image has no vertex
     /// within the tolerance (or shares its twin with another vertex), and how far the nearest
-    /// one is; [`CoreError::InvalidArgument`] for an empty template.
+    /// one is; [`CoreError::Empty`] for an empty template.
     pub fn new(rest: &[Vec3]) -> Result<Self> {
         Self::with_tolerance(rest, MIRROR_TOLERANCE)
     }
@@ -73,9 +73,10 @@ impl MirrorMap {
             .into());
         }
         if rest.is_empty() {
-            return Err(CoreError::InvalidArgument(
-                "a mirror map needs at least one vertex".into(),
-            )
+            return Err(CoreError::Empty {
+                what: "a mirror map".into(),
+                item: "vertex",
+            }
             .into());
         }
         // Sort by (y, z) so each vertex's twin, which shares them, is found by a short scan.
@@ -238,7 +239,10 @@ mod tests {
             MirrorMap::new(&crowded),
             Err(Error::NotMirrorSymmetric { .. })
         ));
-        assert!(MirrorMap::new(&[]).is_err());
+        assert!(matches!(
+            MirrorMap::new(&[]),
+            Err(Error::Core(CoreError::Empty { item: "vertex", .. }))
+        ));
         let map = MirrorMap::new(&[Vec3::zeros()]).unwrap();
         assert!(map.asymmetry(&[]).is_err());
         assert!(map.asymmetry(&[Vec3::new(Real::NAN, 0.0, 0.0)]).is_err());

@@ -8,6 +8,7 @@ use garmatnet_core::{CapsuleBody, Error as CoreError, Garment, Material, Pose, R
 use crate::error::Result;
 use crate::solver::garment_drape::{SequenceSettings, drape_sequence};
 
+/// The simulator's drape of one (pose, material): the ground truth a prediction is compared
 /// with.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulatedDrape {

@@ -5,4 +5,5 @@ pub(crate) mod files;
 pub(crate) mod loader;
 pub(crate) mod pca;
 pub(crate) mod split;
+pub(crate) mod split_config;
 pub(crate) mod stored_sequence;

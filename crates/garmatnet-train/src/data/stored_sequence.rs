@@ -9,7 +9,8 @@ use crate::data::loader::{SampleKey, TrainingDataset};
 use crate::error::{Error, Result};
 
 /// One fabric's stored drapes over a run of a dataset's frames: the ground truth as a
-/// sequence ([`stored_sequence`]), for a [`DrapeSequence`].
+/// sequence ([`stored_sequence`]), for a
+/// [`DrapeSequence`](garmatnet_core::DrapeSequence).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredSequence {
     /// The fabric's name, as the dataset spells it.
@@ -68,8 +69,6 @@ pub fn stored_sequence(
     }
     Ok(sequence)
 }
-
-/// The simulator's drape of one (pose, material): the ground truth a prediction is compared
 
 #[cfg(test)]
 mod tests {

@@ -566,8 +566,9 @@ mod tests {
     use crate::data::files::split_path;
     use crate::test_util::{synthetic_dataset, training_lock};
     use crate::training::baseline::{BaselineConfig, train_baseline};
+    use crate::training::train_config::{RunOptions, TrainConfig};
     use crate::training::trainer::tests::tiny_config;
-    use crate::training::trainer::{RunOptions, TrainConfig, train};
+    use crate::training::trainer::train;
     use garmatnet_model::MaterialRange;
 
     #[test]

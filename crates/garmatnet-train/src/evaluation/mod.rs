@@ -9,3 +9,4 @@ pub(crate) mod physical_quality;
 pub(crate) mod plots;
 pub(crate) mod prediction_errors;
 pub(crate) mod report;
+pub(crate) mod report_markdown;

@@ -11,22 +11,11 @@
 use garmatnet_core::{Garment, Material, PosedBody, SignedDistance, Vec3};
 use garmatnet_sim::{
     ClothModel, DatasetSpec, DrapeSettings, DrapeSolver, SOUND_STRETCH, SequenceSettings,
-    cloth_from_garment, drape_energy_and_gradient,
+    cloth_from_garment, drape_energy_and_gradient, force_residual,
 };
 
 use crate::error::{Error, Result};
 use crate::evaluation::report::{NewtonFromPrediction, PhysicalQuality};
-
-/// The solver's stopping measure: RMS over vertices of `|f_i| / (m_i g)`, for net forces
-/// `f = -gradient` of the drape energy (friction, which is not part of it, left out).
-fn force_residual(gradient: &[Vec3], masses: &[f64], gravity: f64) -> f64 {
-    let sum: f64 = gradient
-        .iter()
-        .zip(masses)
-        .map(|(g, m)| (g.norm() / (m * gravity)).powi(2))
-        .sum();
-    (sum / gradient.len().max(1) as f64).sqrt()
-}
 
 /// The deepest point of `x` inside `body` (metres, ≥ 0).
 fn deepest(body: &PosedBody, x: &[Vec3]) -> f64 {
@@ -125,8 +114,11 @@ impl QualityAccumulator {
         let weight: f64 = model.masses().iter().sum::<f64>() * settings.gravity;
         let (predicted, gradient) = drape_energy_and_gradient(model, &settings, body, x)?;
         let (settled, truth_gradient) = drape_energy_and_gradient(model, &settings, body, truth)?;
-        let residual = force_residual(&gradient, model.masses(), settings.gravity);
-        let truth_residual = force_residual(&truth_gradient, model.masses(), settings.gravity);
+        // No vertex is pinned; friction, which is not part of the energy, is left out.
+        let free = vec![false; x.len()];
+        let (residual, _) = force_residual(&gradient, model.masses(), &free, settings.gravity);
+        let (truth_residual, _) =
+            force_residual(&truth_gradient, model.masses(), &free, settings.gravity);
         let (stretch, truth_stretch) = (model.max_strain(x)?, model.max_strain(truth)?);
         self.above_mm
             .push(1e3 * (predicted.total() - settled.total()) / weight);

@@ -37,7 +37,8 @@ impl BodyField {
     /// `x`: `[B, n, 3]`, `B = bodies.len()`.
     ///
     /// # Errors
-    /// [`CoreError::Mismatch`] if `x` is not `[bodies.len(), n, 3]`.
+    /// [`CoreError::Mismatch`] if `x` is not `[bodies.len(), n, 3]`;
+    /// [`crate::Error::TensorRead`] if its values cannot be read back from the device.
     pub fn at(bodies: &[PosedBody], x: &Tensor<3>) -> Result<Self> {
         let [batch, n, three] = x.dims();
         if batch != bodies.len() || three != 3 {
@@ -53,7 +54,10 @@ impl BodyField {
             .clone()
             .into_data()
             .try_into_vec_as::<f64>()
-            .map_err(|e| CoreError::InvalidArgument(format!("garment positions: {e:?}")))?;
+            .map_err(|source| crate::Error::TensorRead {
+                what: "garment positions of a body field",
+                source,
+            })?;
         let fields: Vec<(f64, Vec3)> = flat
             .chunks_exact(3)
             .enumerate()

@@ -76,7 +76,7 @@ impl ClothTensors {
     /// on `device` in float type `dtype`.
     ///
     /// # Errors
-    /// [`CoreError::InvalidArgument`] for no model; [`CoreError::Mismatch`] if the models'
+    /// [`crate::Error::EmptyInput`] for no model; [`CoreError::Mismatch`] if the models'
     /// topologies differ; as [`DrapeSettings::validate`] for invalid settings.
     pub fn new(
         models: &[&ClothModel],
@@ -85,8 +85,9 @@ impl ClothTensors {
         dtype: DType,
     ) -> Result<Self> {
         settings.validate()?;
-        let first = models.first().ok_or_else(|| {
-            CoreError::InvalidArgument("an energy batch needs at least one cloth model".into())
+        let first = models.first().ok_or(crate::Error::EmptyInput {
+            what: "an energy batch",
+            needs: "at least one cloth model",
         })?;
         for (i, m) in models.iter().enumerate() {
             if !first.same_topology(m) {
@@ -382,7 +383,7 @@ mod tests {
         ));
         assert!(matches!(
             ClothTensors::new(&[], &settings, &dev, DType::F32),
-            Err(crate::Error::Core(CoreError::InvalidArgument(_)))
+            Err(crate::Error::EmptyInput { .. })
         ));
         let cloth = ClothTensors::new(&[&a], &settings, &dev, DType::F32).unwrap();
         let posed = body.pose(&garmatnet_core::Pose::zero());

@@ -28,7 +28,8 @@ use crate::physics::batch::{PhysicsBatch, PhysicsPoses};
 use crate::physics::two_net_loss::{NormalizerTensors, TwoNetPhysicsLoss, rest_offset_normalizers};
 use crate::progress::Progress;
 use crate::training::checkpoint::{CHECKPOINT_VERSION, CheckpointDir, CheckpointState, Phase};
-use crate::training::trainer::{NetSummary, RunOptions, TrainConfig, check_model_path};
+use crate::training::train_config::{RunOptions, TrainConfig, check_model_path};
+use crate::training::trainer::NetSummary;
 use crate::training::training_loop::{epoch_progress, initial_progress};
 
 /// Both nets as one module, so one optimiser and one checkpoint file carry them.

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::evaluation::evaluate::{EvalConfig, EvalInputs, evaluate};
-use crate::training::trainer::{RunOptions, TrainConfig, train};
+use crate::training::train_config::{RunOptions, TrainConfig};
+use crate::training::trainer::train;
 
 /// The paper's α values.
 pub const PAPER_ALPHAS: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];

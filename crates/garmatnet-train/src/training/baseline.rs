@@ -25,9 +25,11 @@ use garmatnet_model::{BaselineNet, BaselineNetConfig, OutputNormalizer, select_d
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
-use crate::data::split::{Split, SplitConfig};
+use crate::data::split::Split;
+use crate::data::split_config::SplitConfig;
 use crate::error::{Error, Result};
-use crate::training::trainer::{NetSummary, TrainConfig};
+use crate::training::train_config::{LoopConfig, TrainConfig, check_loop_settings};
+use crate::training::trainer::NetSummary;
 use crate::training::training_loop::{
     DeviceSet, LearningRateSchedule, LoopSettings, NetSets, Outcome, fit_net, fit_normalizer,
 };
@@ -64,7 +66,7 @@ pub struct BaselineConfig {
     pub dropout: f64,
     /// Decoupled weight decay (AdamW); `0` (default): plain Adam. Not written at its
     /// default.
-    #[serde(skip_serializing_if = "crate::training::trainer::is_zero")]
+    #[serde(skip_serializing_if = "crate::training::train_config::is_zero")]
     pub weight_decay: f64,
     /// Passes over a material's training samples per epoch; `None`: match GarMatNet's
     /// training-set size (see the module docs).
@@ -119,7 +121,7 @@ impl BaselineConfig {
     /// # Errors
     /// [`Error::InvalidConfig`] naming the field.
     pub fn validate(&self) -> Result<()> {
-        crate::training::trainer::check_loop_settings(&crate::training::trainer::LoopConfig {
+        check_loop_settings(&LoopConfig {
             learning_rate: self.learning_rate,
             batch_size: self.batch_size,
             max_epochs: self.max_epochs,

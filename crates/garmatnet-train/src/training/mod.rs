@@ -4,5 +4,6 @@
 pub(crate) mod alpha_sweep;
 pub(crate) mod baseline;
 pub(crate) mod checkpoint;
+pub(crate) mod train_config;
 pub(crate) mod trainer;
 pub(crate) mod training_loop;

@@ -55,14 +55,15 @@ pub const STD_FLOOR: f64 = garmatnet_model::MIN_STD;
 /// `values` (`[S, dim]`, row-major).
 ///
 /// # Errors
-/// From [`OutputNormalizer::from_parts`] (non-finite values); `InvalidArgument` for no rows.
+/// From [`OutputNormalizer::from_parts`] (non-finite values); [`Error::EmptyInput`] for no
+/// rows.
 pub(crate) fn fit_normalizer(values: &[f32], dim: usize) -> Result<OutputNormalizer> {
     let rows = values.len() / dim.max(1);
     if rows == 0 {
-        return Err(garmatnet_core::Error::InvalidArgument(
-            "cannot fit an output normaliser on zero training samples".into(),
-        )
-        .into());
+        return Err(Error::EmptyInput {
+            what: "fitting an output normaliser",
+            needs: "at least one training sample",
+        });
     }
     let mut mean = vec![0.0f64; dim];
     for row in values.chunks_exact(dim) {
@@ -482,7 +483,7 @@ fn diverged(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::training::trainer::TrainConfig;
+    use crate::training::train_config::TrainConfig;
 
     #[test]
     fn a_divergence_names_what_is_kept_and_how_to_go_on() {
@@ -559,6 +560,10 @@ mod tests {
         assert_eq!(norm.std()[0], STD_FLOOR);
         approx::assert_relative_eq!(norm.std()[1], 0.1, epsilon = 1e-7);
         approx::assert_relative_eq!(norm.mean()[1], 0.2, epsilon = 1e-7);
+        assert!(matches!(
+            fit_normalizer(&[], 2),
+            Err(Error::EmptyInput { .. })
+        ));
     }
 
     /// Per-step cost at a realistic size (n = 2,700 vertices, hidden 512, batch 32); run with
