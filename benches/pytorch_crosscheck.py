@@ -28,7 +28,7 @@ from safetensors.torch import load_file
 
 TOLERANCE = 1e-4
 
-# MaterialBounds::STANDARD (crates/garmatnet-core/src/material_bounds.rs): structural V/H,
+# MaterialBounds::STANDARD (crates/garmatnet-core/src/material/bounds.rs): structural V/H,
 # flexion V/H, shear, density.
 BOUNDS = [(10.0, 20_000.0)] * 2 + [(0.01, 2_000.0)] * 2 + [(1.0, 20_000.0), (0.02, 1.0)]
 

@@ -83,20 +83,29 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     for out in &args.out {
         OutputFormat::from_path(out)?;
     }
-    let (material, fabric) = match &args.calibration {
+    // The material in physical units (for the simulator) and its normalised ω (for the
+    // nets), each as given: ω given goes to the predictor as written, a preset or physical
+    // values to the simulator unchanged.
+    let (material, omega, fabric) = match &args.calibration {
         Some(path) => {
             let calibration = FabricCalibration::load(path)?;
-            let material = Material::from_normalized(calibration.omega)?;
-            (material, Fabric::Calibrated(Box::new(calibration)))
+            let omega = calibration.omega;
+            let material = Material::from_normalized(omega)?;
+            (material, omega, Fabric::Calibrated(Box::new(calibration)))
         }
         None => {
-            // ω given goes to the predictor as written, not through physical units.
-            let omega = match args.omega.as_deref() {
-                Some(text) => parse_omega(text)?,
-                None => resolve_material(args.material.as_deref(), None, "Cotton Poplin")?
-                    .to_normalized(),
+            let (material, omega) = match args.omega.as_deref() {
+                Some(text) => {
+                    let omega = parse_omega(text)?;
+                    (Material::from_normalized(omega)?, omega)
+                }
+                None => {
+                    let material =
+                        resolve_material(args.material.as_deref(), None, "Cotton Poplin")?;
+                    (material, material.to_normalized())
+                }
             };
-            (Material::from_normalized(omega)?, Fabric::Omega(omega))
+            (material, omega, Fabric::Omega(omega))
         }
     };
     if let Some(fps) = args.fps
@@ -153,7 +162,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         )?;
     }
     if let Some(range) = predictor.material_range() {
-        let outside = range.outside(&material.to_normalized());
+        let outside = range.outside(&omega);
         if !outside.is_empty() {
             let parts: Vec<String> = outside.iter().map(ToString::to_string).collect();
             warnln!(

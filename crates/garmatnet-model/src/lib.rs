@@ -4,11 +4,11 @@
 //!   the locally-detailed net. [`BaselineNet`]: the TailorNet-style comparison (no material).
 //! - [`GarMatNetModel`]: both nets, their [`OutputNormalizer`]s and metadata, saved as one
 //!   self-describing `.safetensors` file.
-//! - [`GarMatNetModel::average`] ([`ensemble`]): several trained models averaged into one
+//! - [`GarMatNetModel::average`]: several trained models averaged into one
 //!   wider model of the same architecture and file format.
 //! - [`Predictor`] and [`Scene`]: typed, validated, batched inference; [`push_out()`] keeps
 //!   garments outside the body.
-//! - [`FabricCalibration`] ([`calibration`]): a fabric described by one simulated drape as
+//! - [`FabricCalibration`]: a fabric described by one simulated drape as
 //!   a blend of the model's training fabrics, for fabrics far from them.
 //!
 //! Backends are chosen at run time with [`select_device`]; the CPU (`flex`) is always there,

@@ -91,7 +91,7 @@ fn check(path: &Path, drapes: &[[f32; 3]]) {
         "the solver's drapes moved (by {:.3} mm at vertex {} of drape {}) from ground-truth \
          revision {GROUND_TRUTH_REVISION}'s ({}): datasets of this revision could no longer be \
          resumed or extended consistently. If the change is meant, bump GROUND_TRUTH_REVISION \
-         (crates/garmatnet-sim/src/manifest.rs), say there what changed, and write the new \
+         (crates/garmatnet-sim/src/dataset/manifest.rs), say there what changed, and write the new \
          fixture with GARMATNET_BLESS=1",
         worst * 1e3,
         at % per_frame,

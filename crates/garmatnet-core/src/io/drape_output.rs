@@ -205,18 +205,16 @@ impl DrapeSequence<'_> {
     /// Returns the paths written.
     ///
     /// # Errors
-    /// [`Error::UnknownOutputFormat`] for an unknown extension; [`Error::WrongLength`] for no
-    /// frames;
-    /// [`Error::Mismatch`] when the lists differ in length; the writers' errors
+    /// [`Error::UnknownOutputFormat`] for an unknown extension; [`Error::Empty`] for no
+    /// frames; [`Error::Mismatch`] when the lists differ in length; the writers' errors
     /// otherwise (files already written for earlier frames stay, each complete).
     pub fn write(&self, path: &Path) -> Result<Vec<PathBuf>> {
         let format = OutputFormat::from_path(path)?;
         let n = self.frames.len();
         if n == 0 {
-            return Err(Error::WrongLength {
-                what: "frames of the drape sequence".into(),
-                expected: "at least 1".into(),
-                got: 0,
+            return Err(Error::Empty {
+                what: "a drape sequence".into(),
+                item: "frame",
             });
         }
         for (what, len) in [

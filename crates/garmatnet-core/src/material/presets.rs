@@ -1,4 +1,6 @@
-//! The preset library: named fabrics from tulle to rigid fused trim, with name lookup.
+//! The preset library: named fabrics from tulle to rigid fused trim, with name lookup, and
+//! the one parser of fabrics written as text: a preset name, six physical values or six
+//! normalised ω values ([`Material::parse_values`], [`parse_omega`], [`resolve_material`]).
 //!
 //! The paper takes its 67 materials from Marvelous Designer's library, whose values are not
 //! public. These presets are **our own physically reasoned estimates**, not measurements
@@ -218,7 +220,8 @@ impl FromStr for Material {
 /// The units six comma-separated material values are written in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MaterialUnits {
-    /// Physical values (N/m, N·m, kg/m², as [`COMPONENT_UNITS`] names them), as
+    /// Physical values (N/m for the five stiffnesses, kg/m² for density, as
+    /// [`COMPONENT_UNITS`] names them), as
     /// [`Material::from_array`] takes them.
     Physical,
     /// Normalised ω in [0, 1], as [`Material::from_normalized`] takes it.
@@ -266,15 +269,28 @@ pub fn parse_omega(text: &str) -> Result<[Real; MATERIAL_DIM]> {
 
 /// The six comma-separated numbers of `text`, unchecked.
 fn six_values(text: &str, units: MaterialUnits) -> Result<[Real; MATERIAL_DIM]> {
-    let (what, each) = match units {
-        MaterialUnits::Physical => ("material value list", "material value"),
-        MaterialUnits::Normalized => ("normalised material ω", "ω component"),
+    let (what, each, range, hint) = match units {
+        MaterialUnits::Physical => (
+            "material value list",
+            "material value",
+            "",
+            "; give six numbers separated by commas, or a preset name",
+        ),
+        MaterialUnits::Normalized => (
+            "normalised material ω",
+            "ω component",
+            " in [0, 1]",
+            "; give six numbers in [0, 1] separated by commas",
+        ),
     };
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != MATERIAL_DIM {
         return Err(Error::WrongLength {
-            what: what.into(),
-            expected: format!("{MATERIAL_DIM} ({})", COMPONENT_NAMES.join(", ")),
+            what: format!("{what} `{text}`"),
+            expected: format!(
+                "{MATERIAL_DIM} comma-separated numbers{range} ({})",
+                COMPONENT_NAMES.join(", ")
+            ),
             got: parts.len(),
         });
     }
@@ -293,7 +309,7 @@ fn six_values(text: &str, units: MaterialUnits) -> Result<[Real; MATERIAL_DIM]> 
                 MaterialUnits::Normalized => format!("{each} {} ({})", i + 1, COMPONENT_NAMES[i]),
             },
             text: (*p).to_owned(),
-            hint: "; give six numbers separated by commas".into(),
+            hint: hint.into(),
         })?;
     }
     Ok(values)
@@ -472,6 +488,11 @@ mod tests {
         }
         let few = omega("0.1,0.2").expect_err("two numbers");
         assert!(matches!(few, Error::WrongLength { got: 2, .. }), "{few}");
+        assert!(
+            few.to_string()
+                .contains("6 comma-separated numbers in [0, 1]"),
+            "{few}"
+        );
         let word = omega("0.1,0.2,x,0.4,0.5,0.6").expect_err("not a number");
         assert!(
             matches!(&word, Error::NotANumber { what, text, .. }

@@ -508,8 +508,9 @@ impl Predictor {
         detail: Detail,
     ) -> Result<SequencePredictions<'a>> {
         let normalized = *material;
+        validate_material(&normalized)?;
         for (i, pose) in poses.iter().enumerate() {
-            validate_inputs(pose, &normalized)
+            pose.validate()
                 .map_err(|source| Error::InvalidPose { index: i, source })?;
         }
         Ok(SequencePredictions {
@@ -645,6 +646,11 @@ pub(crate) fn validate_inputs(
     material: &[Real; MATERIAL_DIM],
 ) -> garmatnet_core::Result<()> {
     pose.validate()?;
+    validate_material(material)
+}
+
+/// Checks a normalised material: six finite values in [0, 1].
+fn validate_material(material: &[Real; MATERIAL_DIM]) -> garmatnet_core::Result<()> {
     ensure_finite("normalised material coordinates", material.iter().copied())?;
     if let Some((i, &v)) = material
         .iter()
@@ -979,7 +985,15 @@ mod tests {
         assert_eq!(direct, sequence);
         let mut bad = silk.to_normalized();
         bad[2] = 1.5;
-        assert!(p.sequence_normalized(&poses, &bad, Detail::Full).is_err());
+        for poses in [&poses[..], &[]] {
+            let Err(err) = p.sequence_normalized(poses, &bad, Detail::Full) else {
+                panic!("ω out of range was accepted");
+            };
+            assert!(
+                matches!(err, Error::Core(garmatnet_core::Error::OutOfRange { .. })),
+                "{err}"
+            );
+        }
     }
 
     #[test]

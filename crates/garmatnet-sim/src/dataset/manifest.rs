@@ -1,5 +1,6 @@
-//! The dataset manifest (`DIR/manifest.json`) and the per-sample completion marker; see
-//! [`crate::dataset::writer`] for the whole on-disk layout.
+//! The dataset manifest (`DIR/manifest.json`) and the per-sample completion marker; the
+//! whole on-disk layout is in the book's dataset-format chapter (`book/src/dataset-format.md`)
+//! and on [`crate::DatasetWriter`].
 
 use std::path::{Path, PathBuf};
 

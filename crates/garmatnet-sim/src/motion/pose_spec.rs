@@ -28,7 +28,7 @@ pub const EVERYDAY_POSES: &str = "everyday";
 /// # Errors
 /// [`CoreError::OutOfRange`] for a frame past the sequence or the file;
 /// [`Error::FrameWithoutPoseFile`] for a `frame` without a pose file to pick from (no
-/// `spec`, or a frame number of the built-in motion); the everyday suite's error for an
+/// `spec`, or a frame number of the built-in motion); [`Error::UnknownEverydayPose`] for an
 /// unknown pose name; the pose file reader's errors (missing file, malformed content, NaN)
 /// otherwise.
 pub fn resolve_pose(spec: Option<&str>, frame: Option<usize>) -> Result<Pose> {

@@ -458,7 +458,8 @@ impl DrapeSolver {
 
 /// The solver's stopping measure: the RMS and the largest `|f_i| / (m_i g)` over the free
 /// vertices (`is_pinned[i]` false), for net forces `f = -gradient`. [`DrapeSettings`]'s
-/// residual tolerances are in these units.
+/// residual tolerances are in these units. `gradient`, `masses` and `is_pinned` hold one
+/// entry per vertex, in the same order.
 ///
 /// [`DrapeSettings`]: crate::DrapeSettings
 #[must_use]
