@@ -410,6 +410,33 @@ fn drape_frames_of_an_amass_file_play_at_its_frame_rate() -> anyhow::Result<()> 
     Ok(())
 }
 
+/// The everyday suite lies within the joint limits training poses are drawn within, so
+/// `drape` predicts it without a warning; a pose far past them is warned about.
+#[test]
+fn drape_warns_about_poses_past_the_joint_limits_only() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let drape = |pose: &std::path::Path| -> anyhow::Result<String> {
+        let out = garmatnet()
+            .args(["drape", "--frames", "all", "--pose"])
+            .arg(pose)
+            .arg("--out")
+            .arg(dir.path().join("d.obj"))
+            .output()?;
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        Ok(stderr)
+    };
+    let stderr = drape(std::path::Path::new("everyday"))?;
+    assert!(!stderr.contains("joint limits"), "{stderr}");
+    let mut far = vec![0.0_f64; 72];
+    far[3] = 3.0;
+    let poses = dir.path().join("far.json");
+    std::fs::write(&poses, serde_json::to_string(&vec![far])?)?;
+    let stderr = drape(&poses)?;
+    assert!(stderr.contains("outside the joint limits"), "{stderr}");
+    Ok(())
+}
+
 #[test]
 fn drape_bad_input_fails_with_a_message_and_leaves_no_file() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;

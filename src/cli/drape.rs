@@ -189,8 +189,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             );
         }
     }
-    // The nets learned poses within the joint limits; one beyond them is an extrapolation.
-    let limits = JointLimits::default();
+    // Training poses are drawn within the everyday limits (the pose sampler's; the built-in
+    // walk keeps to the narrower defaults inside them): a pose beyond them is an
+    // extrapolation for every model.
+    let limits = JointLimits::everyday();
     let single = [(0, pose.clone())];
     let frames = sequence.as_deref().unwrap_or(&single);
     let mut beyond = frames
@@ -205,8 +207,9 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             None => String::new(),
         };
         warnln!(
-            "warning: the pose lies outside the joint limits the model was trained within \
-             ({which}{first}): the prediction is an extrapolation, expect larger errors"
+            "warning: the pose lies outside the joint limits training poses are drawn within \
+             (JointLimits::everyday; {which}{first}): the prediction is an extrapolation, expect \
+             larger errors"
         );
     }
     if let Some(sequence) = sequence {
