@@ -115,6 +115,17 @@ pub enum Error {
         message: String,
     },
 
+    /// A report, split, manifest or sweep could not be encoded as JSON. This is a bug in
+    /// garmatnet: please report it with the command that failed.
+    #[error("cannot encode {what} as JSON: {source}")]
+    Serialize {
+        /// What was being encoded, e.g. `"the report"`.
+        what: &'static str,
+        /// serde_json's reason.
+        #[source]
+        source: serde_json::Error,
+    },
+
     /// An input that must hold something is empty (no training sample to fit an output
     /// normaliser on, no cloth model for an energy batch). Give it what the message says it
     /// needs.

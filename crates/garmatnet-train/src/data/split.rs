@@ -291,8 +291,10 @@ impl Split {
     /// # Errors
     /// [`Error::Core`] (I/O) if the file cannot be written.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let bytes = serde_json::to_vec_pretty(self)
-            .map_err(|e| Error::InvalidConfig(format!("cannot serialise the split: {e}")))?;
+        let bytes = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
+            what: "the split",
+            source,
+        })?;
         garmatnet_core::write_bytes_atomic(path, &bytes)?;
         crate::data::files::make_readable(path);
         Ok(())

@@ -327,8 +327,10 @@ impl Report {
     /// # Errors
     /// [`Error::Core`] (I/O) if a file cannot be written.
     pub fn write(&self, out_dir: &Path) -> Result<()> {
-        let json = serde_json::to_vec_pretty(self)
-            .map_err(|e| Error::InvalidConfig(format!("cannot encode the report: {e}")))?;
+        let json = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
+            what: "the report",
+            source,
+        })?;
         garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
         garmatnet_core::write_bytes_atomic(
             out_dir.join("report.md"),

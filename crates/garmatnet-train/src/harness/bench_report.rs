@@ -79,8 +79,10 @@ pub(crate) fn mark_pareto(rows: &mut [BenchRow]) {
 }
 
 pub(crate) fn write_report(dir: &Path, report: &BenchReport) -> Result<()> {
-    let json = serde_json::to_vec_pretty(report)
-        .map_err(|e| Error::InvalidConfig(format!("bench report does not serialise: {e}")))?;
+    let json = serde_json::to_vec_pretty(report).map_err(|source| Error::Serialize {
+        what: "the bench report",
+        source,
+    })?;
     garmatnet_core::write_bytes_atomic(dir.join("bench.json"), &json)?;
     garmatnet_core::write_bytes_atomic(dir.join("bench.md"), markdown(report).as_bytes())?;
     let points: Vec<ParetoPoint> = report

@@ -114,8 +114,10 @@ pub fn sweep_alpha(
             epochs,
         });
     }
-    let json = serde_json::to_vec_pretty(&rows)
-        .map_err(|e| Error::InvalidConfig(format!("cannot encode the sweep: {e}")))?;
+    let json = serde_json::to_vec_pretty(&rows).map_err(|source| Error::Serialize {
+        what: "the α sweep",
+        source,
+    })?;
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.json"), &json)?;
     garmatnet_core::write_bytes_atomic(out_dir.join("alpha_sweep.md"), markdown(&rows).as_bytes())?;
     for f in ["alpha_sweep.json", "alpha_sweep.md"] {

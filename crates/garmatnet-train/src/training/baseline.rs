@@ -371,8 +371,10 @@ pub fn train_baseline(
         config: config.clone(),
         materials: entries,
     };
-    let json = serde_json::to_vec_pretty(&manifest)
-        .map_err(|e| Error::InvalidConfig(format!("cannot encode {BASELINE_MANIFEST}: {e}")))?;
+    let json = serde_json::to_vec_pretty(&manifest).map_err(|source| Error::Serialize {
+        what: "the baseline manifest",
+        source,
+    })?;
     let manifest_path = out_dir.join(BASELINE_MANIFEST);
     garmatnet_core::write_bytes_atomic(&manifest_path, &json)?;
     crate::data::files::make_readable(&manifest_path);
