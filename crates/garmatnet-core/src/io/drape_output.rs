@@ -24,9 +24,7 @@ use crate::mesh::TriMesh;
 #[must_use]
 pub fn numbered_path(path: &Path, frame: usize, last: usize) -> PathBuf {
     let width = last.max(1).to_string().len().max(4);
-    let stem = path
-        .file_stem()
-        .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
+    let stem = file_stem(path);
     let name = match path.extension() {
         Some(ext) => format!("{stem}.{frame:0width$}.{}", ext.to_string_lossy()),
         None => format!("{stem}.{frame:0width$}"),
@@ -37,10 +35,14 @@ pub fn numbered_path(path: &Path, frame: usize, last: usize) -> PathBuf {
 /// Where the comparison image of the PNG `path` goes: `drape.png` → `drape_compare.png`.
 #[must_use]
 pub fn compare_path(path: &Path) -> PathBuf {
-    let stem = path
-        .file_stem()
-        .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned());
+    let stem = file_stem(path);
     path.with_file_name(format!("{stem}_compare.png"))
+}
+
+/// `path`'s file name without its extension, `drape` when it has none.
+fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or_else(|| "drape".to_owned(), |s| s.to_string_lossy().into_owned())
 }
 
 /// A file-name-safe lowercase form of a name (e.g. a fabric's): ASCII letters and digits

@@ -58,7 +58,9 @@ use crate::error::{Error, Result};
 use crate::net::garmatnet_net::{GarMatNet, MATERIAL_DIM};
 use crate::net::tensor_util::{matrix, to_f32};
 use crate::predict::material_range::TrainingFabric;
-use crate::predict::predictor::{Detail, GarmentMesh, Predictor, validate_inputs};
+use crate::predict::predictor::{
+    Detail, GarmentMesh, Predictor, validate_inputs, validate_material, validate_poses,
+};
 
 /// The calibration file format version this build writes and reads.
 pub const CALIBRATION_VERSION: u32 = 1;
@@ -273,7 +275,7 @@ impl FabricCalibration {
                  calibration stays within"
             ));
         }
-        Ok(validate_inputs(&Pose::zero(), &self.omega)?)
+        Ok(validate_material(&self.omega)?)
     }
 
     /// Writes the calibration as JSON, atomically (a temporary file, then a rename).
@@ -485,7 +487,7 @@ impl Predictor {
         detail: Detail,
     ) -> Result<GarmentMesh> {
         calibration.check_for(self)?;
-        validate_inputs(pose, &calibration.omega)?;
+        pose.validate()?;
         let mut meshes = self.calibrated_meshes(std::slice::from_ref(pose), calibration, detail)?;
         Ok(meshes.remove(0))
     }
@@ -503,10 +505,7 @@ impl Predictor {
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
         calibration.check_for(self)?;
-        for (i, pose) in poses.iter().enumerate() {
-            validate_inputs(pose, &calibration.omega)
-                .map_err(|source| Error::InvalidPose { index: i, source })?;
-        }
+        validate_poses(poses)?;
         self.calibrated_meshes(poses, calibration, detail)
     }
 

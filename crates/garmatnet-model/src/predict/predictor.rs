@@ -509,10 +509,7 @@ impl Predictor {
     ) -> Result<SequencePredictions<'a>> {
         let normalized = *material;
         validate_material(&normalized)?;
-        for (i, pose) in poses.iter().enumerate() {
-            pose.validate()
-                .map_err(|source| Error::InvalidPose { index: i, source })?;
-        }
+        validate_poses(poses)?;
         Ok(SequencePredictions {
             predictor: self,
             batches: poses.chunks(SEQUENCE_BATCH),
@@ -649,8 +646,20 @@ pub(crate) fn validate_inputs(
     validate_material(material)
 }
 
+/// Checks every pose of a sequence before any prediction.
+///
+/// # Errors
+/// [`Error::InvalidPose`] for the first unusable pose, with its index.
+pub(crate) fn validate_poses(poses: &[Pose]) -> Result<()> {
+    for (index, pose) in poses.iter().enumerate() {
+        pose.validate()
+            .map_err(|source| Error::InvalidPose { index, source })?;
+    }
+    Ok(())
+}
+
 /// Checks a normalised material: six finite values in [0, 1].
-fn validate_material(material: &[Real; MATERIAL_DIM]) -> garmatnet_core::Result<()> {
+pub(crate) fn validate_material(material: &[Real; MATERIAL_DIM]) -> garmatnet_core::Result<()> {
     ensure_finite("normalised material coordinates", material.iter().copied())?;
     if let Some((i, &v)) = material
         .iter()

@@ -95,8 +95,7 @@ pub fn resolve_frames(pose_file: Option<&str>, frames: &str) -> Result<Vec<(usiz
             "the built-in motion".to_owned(),
         ),
     };
-    let range = frame_range(frames, poses.len(), &source)?;
-    Ok(range.clone().zip(poses[range].iter().cloned()).collect())
+    picked_frames(poses, frames, &source)
 }
 
 /// `NAME` of an `everyday:NAME` pose argument.
@@ -122,8 +121,19 @@ fn pose_list(spec: &str) -> Result<Vec<Pose>> {
 /// As [`resolve_frames`].
 pub fn training_motion_frames(frames: &str) -> Result<Vec<(usize, Pose)>> {
     let poses = MotionGenerator::new(DEFAULT_MOTION_SEED, SHIPPED_TRAINING_FRAMES).generate();
-    let range = frame_range(frames, poses.len(), "the shipped model's training motion")?;
-    Ok(range.clone().zip(poses[range].iter().cloned()).collect())
+    picked_frames(poses, frames, "the shipped model's training motion")
+}
+
+/// The poses of `poses` (from `source`) that `frames` picks ([`frame_range`]), each with its
+/// index.
+fn picked_frames(poses: Vec<Pose>, frames: &str, source: &str) -> Result<Vec<(usize, Pose)>> {
+    let range = frame_range(frames, poses.len(), source)?;
+    Ok(poses
+        .into_iter()
+        .enumerate()
+        .skip(range.start)
+        .take(range.len())
+        .collect())
 }
 
 /// The number of frames of the motion the shipped model was trained on
