@@ -339,7 +339,7 @@ fn held_out_set(
         let preds = predict_garmatnet(model, &set, keys, device)?;
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = set.truth(key)?;
-            errors.push((seen[key.material], vertex_errors(&truth, &pred)));
+            errors.push((seen[key.material], key.material, vertex_errors(&truth, &pred)));
             let posed = set.body().pose(&set.spec().poses[key.pose]);
             let mut garment = assemble(&truth.body_points, &pred);
             quality.add(key.material, &posed, &garment, &truth.simulated)?;
@@ -353,18 +353,52 @@ fn held_out_set(
     let part = |want: bool| {
         let chosen: Vec<&VertexErrors> = errors
             .iter()
-            .filter(|(s, _)| *s == want)
-            .map(|(_, e)| e)
+            .filter(|(s, _, _)| *s == want)
+            .map(|(_, _, e)| e)
             .collect();
         (!chosen.is_empty()).then(|| error_stats(chosen.into_iter()))
     };
+    let per_material = set
+        .spec()
+        .materials
+        .iter()
+        .enumerate()
+        .filter_map(|(m, spec)| {
+            let own: Vec<&VertexErrors> = errors
+                .iter()
+                .filter(|(_, material, _)| *material == m)
+                .map(|(_, _, e)| e)
+                .collect();
+            (!own.is_empty()).then(|| {
+                let nearest_training = (!seen[m])
+                    .then(|| {
+                        nearest(
+                            &spec.omega_normalized,
+                            training.iter().map(|f| (f, f.omega)),
+                        )
+                    })
+                    .flatten()
+                    .map(|(f, distance)| NearestTraining {
+                        material: f.name.clone(),
+                        distance,
+                    });
+                MaterialErrors {
+                    material: spec.name.clone(),
+                    unseen: !seen[m],
+                    garmatnet: error_stats(own.into_iter()),
+                    nearest_training,
+                }
+            })
+        })
+        .collect();
     Ok(HeldOutSet {
         name: name.to_owned(),
         dir: dir.display().to_string(),
-        all: error_stats(errors.iter().map(|(_, e)| e)),
+        all: error_stats(errors.iter().map(|(_, _, e)| e)),
         training_fabrics: part(true),
         unseen_fabrics: part(false),
         physical_quality: quality.finish(),
+        per_material,
     })
 }
 
@@ -673,6 +707,38 @@ mod tests {
         let wq = whole.physical_quality.unwrap();
         assert_eq!(wq.samples, whole.all.samples);
         assert_eq!(wq.newton.unwrap().samples, 2);
+        // Its rows per fabric partition it; an unseen fabric names the nearest training
+        // fabric at the same distance as in the test set's rows, a training fabric none.
+        // (Every fabric of this dataset has a test sample, so both list every fabric.)
+        assert_eq!(whole.per_material.len(), report.per_material.len());
+        assert_eq!(
+            whole
+                .per_material
+                .iter()
+                .map(|r| r.garmatnet.samples)
+                .sum::<usize>(),
+            whole.all.samples
+        );
+        for r in &whole.per_material {
+            assert_eq!(r.unseen, r.nearest_training.is_some(), "{r:?}");
+            assert_eq!(r.unseen, report.test_materials.contains(&r.material));
+            if let Some(n) = &r.nearest_training {
+                let test_row = report
+                    .per_material
+                    .iter()
+                    .find(|t| t.material == r.material)
+                    .unwrap();
+                assert_eq!(test_row.nearest_training.as_ref(), Some(n));
+            }
+        }
+        let seen_weighted: f64 = whole
+            .per_material
+            .iter()
+            .filter(|r| !r.unseen)
+            .map(|r| r.garmatnet.whole_mm * r.garmatnet.samples as f64)
+            .sum();
+        let seen = whole.training_fabrics.unwrap();
+        assert!((seen_weighted / seen.samples as f64 - seen.whole_mm).abs() < 1e-9 * seen.whole_mm);
         // The parts partition the test set (plus the comparison set) and the dev set is its own.
         let parts = report.garmatnet_by_part.clone().unwrap();
         let (fabric, pose, dev) = (
@@ -867,6 +933,28 @@ mod tests {
         assert_eq!(rows.len(), 2, "{md}");
         assert!(rows.iter().all(|r| !r.ends_with("| – |")), "{rows:?}");
         assert!(md.contains("every 10th frame"), "{md}");
+        // The held-out set's fabrics, and the error against the distance to the nearest
+        // training fabric: the training fabrics at distance 0 and each unseen one in a bin,
+        // for the test set and the held-out set alike.
+        assert!(md.contains("## Per material, whole (GarMatNet, mm)"), "{md}");
+        let distance = md
+            .split("## Error against the distance to the nearest training fabric")
+            .nth(1)
+            .unwrap();
+        let distance = distance.split("\n## ").next().unwrap();
+        for set in ["test set", "whole"] {
+            let rows: Vec<&str> = distance
+                .lines()
+                .filter(|l| l.starts_with(&format!("| {set} | ")))
+                .collect();
+            assert!(rows.iter().any(|r| r.contains("| trained on |")), "{distance}");
+            let unseen: usize = rows
+                .iter()
+                .filter(|r| !r.contains("| trained on |"))
+                .map(|r| r.split(" | ").nth(2).unwrap().parse::<usize>().unwrap())
+                .sum();
+            assert_eq!(unseen, 2, "{distance}");
+        }
 
         // A baseline trained with other held-out poses may have seen the comparison poses.
         let manifest_path = inputs

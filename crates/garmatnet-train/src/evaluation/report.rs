@@ -211,6 +211,11 @@ pub struct HeldOutSet {
     /// How physical the predictions on it are.
     #[serde(default)]
     pub physical_quality: Option<PhysicalQuality>,
+    /// The error per fabric of the set, in the set's order; a fabric the model never trained
+    /// on names its nearest training fabric and that distance in normalised ω (empty in
+    /// reports written before it was recorded).
+    #[serde(default)]
+    pub per_material: Vec<MaterialErrors>,
 }
 
 /// A non-learned reference on the Table 2 samples: the true drape, at the same test pose, of

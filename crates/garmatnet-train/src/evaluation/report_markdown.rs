@@ -150,6 +150,10 @@ impl Report {
         }
         per_material_table(&mut s, &self.per_sample);
         test_set_material_table(&mut s, &self.per_material);
+        for set in &self.held_out_sets {
+            held_out_material_table(&mut s, &set.name, &set.per_material);
+        }
+        fabric_distance_table(&mut s, self);
         let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");
         let _ = writeln!(s, "| Material | Pose | Frame | GarMatNet | Baseline |");
         let _ = writeln!(s, "|---|---:|---:|---:|---:|");
@@ -292,15 +296,113 @@ fn test_set_material_table(s: &mut String, rows: &[MaterialErrors]) {
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
     for r in rows {
-        let name = match (&r.nearest_training, r.unseen) {
-            (Some(n), _) => format!(
-                "{} (never trained on; nearest: {}, {:.3} away)",
-                r.material, n.material, n.distance
-            ),
-            (None, true) => format!("{} (never trained on)", r.material),
-            (None, false) => r.material.clone(),
-        };
-        error_row(s, &name, &r.garmatnet);
+        error_row(s, &material_label(r), &r.garmatnet);
+    }
+}
+
+/// GarMatNet's error per fabric of a held-out set, each unseen fabric with its nearest
+/// training fabric.
+fn held_out_material_table(s: &mut String, set: &str, rows: &[MaterialErrors]) {
+    if rows.len() < 2 {
+        return;
+    }
+    let _ = writeln!(s, "\n## Per material, {set} (GarMatNet, mm)\n");
+    let _ = writeln!(
+        s,
+        "| Material | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        error_row(s, &material_label(r), &r.garmatnet);
+    }
+}
+
+/// A material's row label: an unseen fabric says so and names its nearest training fabric.
+fn material_label(r: &MaterialErrors) -> String {
+    match (&r.nearest_training, r.unseen) {
+        (Some(n), _) => format!(
+            "{} (never trained on; nearest: {}, {:.3} away)",
+            r.material, n.material, n.distance
+        ),
+        (None, true) => format!("{} (never trained on)", r.material),
+        (None, false) => r.material.clone(),
+    }
+}
+
+/// The upper ends of [`fabric_distance_table`]'s bins of distance in normalised ω.
+const DISTANCE_BINS: [f64; 5] = [0.10, 0.15, 0.20, 0.30, 0.40];
+
+/// The bin of [`DISTANCE_BINS`] a distance falls in (the last is open).
+fn distance_bin(distance: f64) -> usize {
+    DISTANCE_BINS
+        .iter()
+        .position(|&upper| distance < upper)
+        .unwrap_or(DISTANCE_BINS.len())
+}
+
+/// The error against the distance from each fabric to the nearest training fabric, per set
+/// (the test set's unseen fabrics at every pose, each held-out set's fabrics at its poses):
+/// the training fabrics at distance 0, then the unseen ones in bins of distance.
+fn fabric_distance_table(s: &mut String, report: &Report) {
+    let mut sets: Vec<(&str, &[MaterialErrors])> = Vec::new();
+    if report.per_material.iter().any(|r| r.nearest_training.is_some()) {
+        sets.push(("test set", &report.per_material));
+    }
+    for set in &report.held_out_sets {
+        if set.per_material.iter().any(|r| r.nearest_training.is_some()) {
+            sets.push((&set.name, &set.per_material));
+        }
+    }
+    if sets.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## Error against the distance to the nearest training fabric (normalised ω)\n"
+    );
+    let _ = writeln!(
+        s,
+        "Each fabric's mean whole error over its samples in the set; a bin's mean weighs \
+         every sample alike. A flat column means the model generalises across fabrics.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| Set | Distance | Fabrics | Samples | Whole (mm) | Range over fabrics (mm) |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|");
+    for (name, rows) in sets {
+        let mut bins: Vec<(String, Vec<&MaterialErrors>)> =
+            vec![("trained on".to_owned(), Vec::new())];
+        let mut lower = 0.0;
+        for upper in DISTANCE_BINS {
+            bins.push((format!("{lower:.2}–{upper:.2}"), Vec::new()));
+            lower = upper;
+        }
+        bins.push((format!("{lower:.2} and beyond"), Vec::new()));
+        for r in rows {
+            let bin = match &r.nearest_training {
+                Some(n) => 1 + distance_bin(n.distance),
+                None if !r.unseen => 0,
+                None => continue,
+            };
+            bins[bin].1.push(r);
+        }
+        for (label, members) in bins.iter().filter(|(_, m)| !m.is_empty()) {
+            let samples: usize = members.iter().map(|r| r.garmatnet.samples).sum();
+            let mean = members
+                .iter()
+                .map(|r| r.garmatnet.whole_mm * r.garmatnet.samples as f64)
+                .sum::<f64>()
+                / samples.max(1) as f64;
+            let (lo, hi) = members.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), r| {
+                (lo.min(r.garmatnet.whole_mm), hi.max(r.garmatnet.whole_mm))
+            });
+            let _ = writeln!(
+                s,
+                "| {name} | {label} | {} | {samples} | {mean:.2} | {lo:.2}–{hi:.2} |",
+                members.len()
+            );
+        }
     }
 }
 
@@ -353,5 +455,21 @@ fn physical_quality_table(s: &mut String, name: &str, q: &PhysicalQuality) {
             "| Polished drape's distance to the ground truth (mm) | {:.2} | 0 |",
             n.mean_distance_to_truth_mm
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distance_bins_are_half_open_and_the_last_is_unbounded() {
+        assert_eq!(distance_bin(0.0), 0);
+        assert_eq!(distance_bin(0.099), 0);
+        assert_eq!(distance_bin(0.10), 1);
+        assert_eq!(distance_bin(0.2999), 3);
+        assert_eq!(distance_bin(0.30), 4);
+        assert_eq!(distance_bin(0.40), DISTANCE_BINS.len());
+        assert_eq!(distance_bin(3.0), DISTANCE_BINS.len());
     }
 }
