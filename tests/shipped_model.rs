@@ -57,3 +57,24 @@ fn the_shipped_model_stays_finite_and_near_the_body_on_random_inputs() -> anyhow
     assert!(report.passed(), "{report:?}");
     Ok(())
 }
+
+#[test]
+fn the_shipped_model_fits_the_default_fitted_shirt_and_trained_on_every_preset() -> anyhow::Result<()> {
+    // The default garment (the fitted T-shirt at default resolution) is the one it predicts.
+    let device = select_device("cpu")?;
+    let model = garmatnet::model::GarMatNetModel::load(SHIPPED_MODEL, &device)?;
+    let body = garmatnet::core::CapsuleBody::smpl_neutral();
+    let fitted = garmatnet::core::Garment::tshirt(garmatnet::core::Resolution::Default, &body)?;
+    assert_eq!(
+        model.meta.template,
+        garmatnet::core::TemplateInfo::of(&fitted)
+    );
+    // Trained on every one of the 30 presets, with the solver's energy beside the labels.
+    let provenance = &model.meta.provenance;
+    assert_eq!(provenance.training_fabrics.len(), 30);
+    assert_eq!(
+        provenance.extra["train_config"]["physics"]["weight"].as_f64(),
+        Some(0.001)
+    );
+    Ok(())
+}
