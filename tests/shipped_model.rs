@@ -59,7 +59,8 @@ fn the_shipped_model_stays_finite_and_near_the_body_on_random_inputs() -> anyhow
 }
 
 #[test]
-fn the_shipped_model_fits_the_default_fitted_shirt_and_trained_on_every_preset() -> anyhow::Result<()> {
+fn the_shipped_model_fits_the_default_fitted_shirt_and_trained_on_every_preset()
+-> anyhow::Result<()> {
     // The default garment (the fitted T-shirt at default resolution) is the one it predicts.
     let device = select_device("cpu")?;
     let model = garmatnet::model::GarMatNetModel::load(SHIPPED_MODEL, &device)?;

@@ -7,8 +7,9 @@ use std::time::Instant;
 
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
-use garmatnet_model::material_range::nearest;
+use garmatnet_model::material_range::{TrainingFabric, nearest};
 use garmatnet_model::{Detail, GarMatNetModel, Predictor, push_out, select_device};
+use garmatnet_sim::MaterialEntry;
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
@@ -174,25 +175,12 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         .chunk_by(|(a, _), (b, _)| a.material == b.material)
         .map(|run| {
             let m = run[0].0.material;
-            let unseen = split.test_materials.contains(&m);
-            let nearest_training = unseen
-                .then(|| {
-                    nearest(
-                        &spec.materials[m].omega_normalized,
-                        training_fabrics.iter().map(|f| (f, f.omega)),
-                    )
-                })
-                .flatten()
-                .map(|(f, distance)| NearestTraining {
-                    material: f.name.clone(),
-                    distance,
-                });
-            MaterialErrors {
-                material: spec.materials[m].name.clone(),
-                unseen,
-                garmatnet: error_stats(run.iter().map(|(_, e)| e)),
-                nearest_training,
-            }
+            material_errors(
+                &spec.materials[m],
+                split.test_materials.contains(&m),
+                &training_fabrics,
+                run.iter().map(|(_, e)| e),
+            )
         })
         .collect();
 
@@ -339,7 +327,7 @@ fn held_out_set(
         let preds = predict_garmatnet(model, &set, keys, device)?;
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = set.truth(key)?;
-            errors.push((seen[key.material], key.material, vertex_errors(&truth, &pred)));
+            errors.push((key.material, vertex_errors(&truth, &pred)));
             let posed = set.body().pose(&set.spec().poses[key.pose]);
             let mut garment = assemble(&truth.body_points, &pred);
             quality.add(key.material, &posed, &garment, &truth.simulated)?;
@@ -353,53 +341,61 @@ fn held_out_set(
     let part = |want: bool| {
         let chosen: Vec<&VertexErrors> = errors
             .iter()
-            .filter(|(s, _, _)| *s == want)
-            .map(|(_, _, e)| e)
+            .filter(|(m, _)| seen[*m] == want)
+            .map(|(_, e)| e)
             .collect();
         (!chosen.is_empty()).then(|| error_stats(chosen.into_iter()))
     };
-    let per_material = set
-        .spec()
-        .materials
-        .iter()
-        .enumerate()
-        .filter_map(|(m, spec)| {
-            let own: Vec<&VertexErrors> = errors
-                .iter()
-                .filter(|(_, material, _)| *material == m)
-                .map(|(_, _, e)| e)
-                .collect();
-            (!own.is_empty()).then(|| {
-                let nearest_training = (!seen[m])
-                    .then(|| {
-                        nearest(
-                            &spec.omega_normalized,
-                            training.iter().map(|f| (f, f.omega)),
-                        )
-                    })
-                    .flatten()
-                    .map(|(f, distance)| NearestTraining {
-                        material: f.name.clone(),
-                        distance,
-                    });
-                MaterialErrors {
-                    material: spec.name.clone(),
-                    unseen: !seen[m],
-                    garmatnet: error_stats(own.into_iter()),
-                    nearest_training,
-                }
-            })
+    // `keys()` is sorted, material first, so each material's errors are one run.
+    let per_material = errors
+        .chunk_by(|(a, _), (b, _)| a == b)
+        .map(|run| {
+            let m = run[0].0;
+            material_errors(
+                &set.spec().materials[m],
+                !seen[m],
+                &training,
+                run.iter().map(|(_, e)| e),
+            )
         })
         .collect();
     Ok(HeldOutSet {
         name: name.to_owned(),
         dir: dir.display().to_string(),
-        all: error_stats(errors.iter().map(|(_, _, e)| e)),
+        all: error_stats(errors.iter().map(|(_, e)| e)),
         training_fabrics: part(true),
         unseen_fabrics: part(false),
         physical_quality: quality.finish(),
         per_material,
     })
+}
+
+/// One fabric's error over its samples; a fabric the model never trained on (`unseen`) names
+/// the training fabric nearest to it in normalised ω.
+fn material_errors<'a>(
+    material: &MaterialEntry,
+    unseen: bool,
+    training: &[TrainingFabric],
+    errors: impl Iterator<Item = &'a VertexErrors>,
+) -> MaterialErrors {
+    let nearest_training = unseen
+        .then(|| {
+            nearest(
+                &material.omega_normalized,
+                training.iter().map(|f| (f, f.omega)),
+            )
+        })
+        .flatten()
+        .map(|(f, distance)| NearestTraining {
+            material: f.name.clone(),
+            distance,
+        });
+    MaterialErrors {
+        material: material.name.clone(),
+        unseen,
+        garmatnet: error_stats(errors),
+        nearest_training,
+    }
 }
 
 /// The garment a prediction makes: the body points plus both displacements (no push-out).
@@ -936,7 +932,10 @@ mod tests {
         // The held-out set's fabrics, and the error against the distance to the nearest
         // training fabric: the training fabrics at distance 0 and each unseen one in a bin,
         // for the test set and the held-out set alike.
-        assert!(md.contains("## Per material, whole (GarMatNet, mm)"), "{md}");
+        assert!(
+            md.contains("## Per material, whole (GarMatNet, mm)"),
+            "{md}"
+        );
         let distance = md
             .split("## Error against the distance to the nearest training fabric")
             .nth(1)
@@ -947,7 +946,10 @@ mod tests {
                 .lines()
                 .filter(|l| l.starts_with(&format!("| {set} | ")))
                 .collect();
-            assert!(rows.iter().any(|r| r.contains("| trained on |")), "{distance}");
+            assert!(
+                rows.iter().any(|r| r.contains("| trained on |")),
+                "{distance}"
+            );
             let unseen: usize = rows
                 .iter()
                 .filter(|r| !r.contains("| trained on |"))

@@ -344,15 +344,16 @@ fn distance_bin(distance: f64) -> usize {
 /// (the test set's unseen fabrics at every pose, each held-out set's fabrics at its poses):
 /// the training fabrics at distance 0, then the unseen ones in bins of distance.
 fn fabric_distance_table(s: &mut String, report: &Report) {
-    let mut sets: Vec<(&str, &[MaterialErrors])> = Vec::new();
-    if report.per_material.iter().any(|r| r.nearest_training.is_some()) {
-        sets.push(("test set", &report.per_material));
-    }
-    for set in &report.held_out_sets {
-        if set.per_material.iter().any(|r| r.nearest_training.is_some()) {
-            sets.push((&set.name, &set.per_material));
-        }
-    }
+    let sets: Vec<(&str, &[MaterialErrors])> =
+        std::iter::once(("test set", report.per_material.as_slice()))
+            .chain(
+                report
+                    .held_out_sets
+                    .iter()
+                    .map(|set| (set.name.as_str(), set.per_material.as_slice())),
+            )
+            .filter(|(_, rows)| rows.iter().any(|r| r.nearest_training.is_some()))
+            .collect();
     if sets.is_empty() {
         return;
     }
@@ -394,9 +395,11 @@ fn fabric_distance_table(s: &mut String, report: &Report) {
                 .map(|r| r.garmatnet.whole_mm * r.garmatnet.samples as f64)
                 .sum::<f64>()
                 / samples.max(1) as f64;
-            let (lo, hi) = members.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), r| {
-                (lo.min(r.garmatnet.whole_mm), hi.max(r.garmatnet.whole_mm))
-            });
+            let (lo, hi) = members
+                .iter()
+                .fold((f64::INFINITY, 0.0_f64), |(lo, hi), r| {
+                    (lo.min(r.garmatnet.whole_mm), hi.max(r.garmatnet.whole_mm))
+                });
             let _ = writeln!(
                 s,
                 "| {name} | {label} | {} | {samples} | {mean:.2} | {lo:.2}–{hi:.2} |",
