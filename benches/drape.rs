@@ -1,11 +1,13 @@
 //! Run: `cargo bench --bench drape`
 //!
 //! Ground-truth solver speed, one thread: a warm-started pose (the previous frame's drape,
-//! then the walk to the next frame of the built-in motion and a full converge, as dataset
-//! generation does) at the default and paper resolutions, and a cold drape from the rest
-//! template. The material is Cotton Poplin; settings are the defaults datasets use. The motion
-//! is the gentle pace (frame 10 to 11), so the figures stay comparable with earlier runs; the
-//! default brisk pace walks about 5x farther between frames (book/src/performance.md: 1.85x per sample).
+//! then the walk to the next frame of the built-in motion and a full converge, as walked
+//! datasets, revision 2's among them, were made) at the default and paper resolutions, and a
+//! cold drape from the rest template. The material is Cotton Poplin; settings are the walk's
+//! defaults ([`SequenceSettings::default`]); the garment is the default fitted shirt (the
+//! book's figures were measured on the boxy one). The motion is the gentle pace (frame 10 to
+//! 11), so the figures stay comparable with earlier runs; the default brisk pace walks about
+//! 5x farther between frames (book/src/performance.md: 1.85x per sample).
 //! Beside them, the interactive frame: the same pose change stepped as an application would
 //! step it ([`FrameStepper`]: the drape carried with the skin in one step, then at most 8
 //! Newton iterations, on a solver made once).

@@ -19,8 +19,7 @@ use garmatnet::core::{
     DrapeSequence, DrapeView, comparison_image, resolve_material, slug, vertex_errors_mm,
 };
 use garmatnet::model::{Detail, FAR_FROM_TRAINING, Predictor, default_model_path, select_device};
-use garmatnet::sim::SequenceSettings;
-use garmatnet::sim::{resolve_frames, resolve_pose, simulate_drape};
+use garmatnet::sim::{canonical_settings, resolve_frames, resolve_pose, simulate_drape};
 use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// The fabrics shown when none is named: light and fluid, a heavy twill, a stiff interlining.
@@ -54,7 +53,8 @@ struct Args {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/drape")]
     out: PathBuf,
-    /// Also run the simulator for every input: error (mm), speed-up, side-by-side render.
+    /// Also run the simulator for every input (by the canonical protocol, as a revision-3
+    /// dataset drapes it): error (mm), speed-up, side-by-side render.
     #[arg(long)]
     compare: bool,
     /// Frames of the built-in motion to predict for the first fabric and write as one
@@ -156,7 +156,7 @@ fn main() -> Result<()> {
                     &body_model,
                     pose,
                     material,
-                    &SequenceSettings::default(),
+                    &canonical_settings(),
                 )?;
                 let errors = vertex_errors_mm(&garment.vertices, &sim.vertices)?;
                 let mean = errors.iter().sum::<f64>() / errors.len() as f64;

@@ -2,10 +2,11 @@
 //! --deltas 0,0.005,0.02]`
 //!
 //! How far a ground-truth drape moves when the fabric changes a little. Each material is
-//! draped along the built-in motion (the 200 brisk frames of seed 0 that the datasets of
-//! book/src/results.md walk, default resolution, the dataset settings) up to `--frames`,
-//! once as given and once per `--deltas` entry with its normalised ω moved that far along
-//! one fixed direction (unit length in the normalised cube). The mean per-vertex distance between
+//! draped along the built-in motion (the 200 brisk frames of seed 0 that the revision-2
+//! datasets walked, book/src/experiments/r2-shipped-model.md; default resolution, the walk's
+//! default settings) up to `--frames`, once as given and once per `--deltas` entry with its
+//! normalised ω moved that far along one fixed direction (unit length in the normalised
+//! cube). The mean per-vertex distance between
 //! the two drapes, over the second half of the frames, is what any model must resolve to
 //! tell the two fabrics apart; if it does not fall towards zero with the step, the drape is
 //! not a smooth function of the fabric and no regressor on (pose, fabric) can beat that
@@ -40,7 +41,7 @@ struct Args {
     friction: Option<f64>,
 }
 
-/// Frames of the motion the datasets of book/src/results.md walk.
+/// Frames of the motion the revision-2 datasets walked.
 const MOTION_FRAMES: usize = 200;
 
 /// The fixed direction of the steps: every component moves, none dominates.
@@ -55,9 +56,9 @@ fn main() -> Result<()> {
     );
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(Resolution::Default, &body)?;
-    // The sequence depends on its length, so generate the datasets' 200 frames and walk the
-    // first ones: the drapes as given are then the samples of a dataset made with the same
-    // solver settings.
+    // The sequence depends on its length, so generate the revision-2 datasets' 200 frames
+    // and walk the first ones: the drapes as given are then the samples of a walked dataset
+    // (`simulate --motion brisk --protocol walk`) made with the same solver settings.
     let mut poses = MotionGenerator::with_pace(0, MOTION_FRAMES, MotionPace::Brisk).generate();
     poses.truncate(args.frames + 1);
     let measured: Vec<usize> = (args.frames.div_ceil(2)..=args.frames).collect();

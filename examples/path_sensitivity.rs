@@ -1,12 +1,13 @@
 //! Run: `cargo run --release --example path_sensitivity [-- --materials A,B --frame 12]`
 //!
 //! How much a ground-truth drape depends on the path the walk took to it. A static drape is
-//! not unique (cloth buckles one way or another), and dataset generation reaches frame `f`
-//! by walking from frame `f - 1`. This drapes each material along the built-in motion (brisk,
-//! seed 0, default resolution, the dataset settings) up to `--frame`, then drapes the same
-//! frame again by walking straight from frame `f - 2`, and prints how far the two valid
-//! drapes lie apart. No model can predict a drape from (pose, fabric) more closely than this
-//! spread allows.
+//! not unique (cloth buckles one way or another), and a walked dataset (revision 2's, or
+//! `simulate --protocol walk`) reaches frame `f` by walking from frame `f - 1`. This drapes
+//! each material along the built-in motion (brisk, seed 0, default resolution, the walk's
+//! default settings) up to `--frame`, then drapes the same frame again by walking straight
+//! from frame `f - 2`, and prints how far the two valid drapes lie apart. No model can
+//! predict a walked drape from (pose, fabric) more closely than this spread allows; that is
+//! why revision 3's canonical protocol drapes every sample from rest along one path.
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;

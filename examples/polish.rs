@@ -1,12 +1,14 @@
 //! Run: `cargo run --release --example polish [-- --materials A,B --frames 10,20 --budgets 0,2,4,8,16]`
 //!
 //! The network's prediction as the simulator's starting point. Drapes each fabric along the
-//! built-in motion the way its dataset does (brisk, seed 0, 200 frames, default resolution,
-//! the dataset settings) up to the last requested frame; at each requested frame (held out
-//! of the shipped model's training when a multiple of 10) predicts the shirt with the
-//! shipped model (or `$GARMATNET_MODEL`) and gives that prediction a budget of Newton
-//! iterations on the posed body ([`FrameStepper`], friction measured from the prediction).
-//! Prints the time and the mean per-vertex distance (mm) to the walked drape for each budget.
+//! built-in walk the way the revision-2 datasets did (brisk, seed 0, 200 frames, default
+//! resolution, the walk's default settings) up to the last requested frame; at each
+//! requested frame predicts the shirt with the shipped model (or `$GARMATNET_MODEL`) and
+//! gives that prediction a budget of Newton iterations on the posed body ([`FrameStepper`],
+//! friction measured from the prediction). Prints the time and the mean per-vertex distance
+//! (mm) to the walked drape for each budget. The shipped model (revision 3) trained on
+//! independent poses, not on this walk; the revision-1 and revision-2 models trained on it
+//! with every 10th frame held out (book/src/experiments/polish.md measured the first).
 
 use std::time::Instant;
 
@@ -47,8 +49,8 @@ fn main() -> Result<()> {
         predictor.vertex_count() == garment.vertex_count(),
         "the model is not for the default-resolution shirt"
     );
-    // The first frames of the dataset's 200-frame sequence (a sequence's frames depend on
-    // its length).
+    // The first frames of the revision-2 datasets' 200-frame walk (a sequence's frames
+    // depend on its length).
     let poses = MotionGenerator::new(0, 200).generate();
     let settings = SequenceSettings::default();
     let mut totals = vec![(0.0, 0.0); args.budgets.len()];

@@ -1455,3 +1455,48 @@ fn simulate_draws_independent_poses_by_default_and_keeps_the_walk() -> anyhow::R
     assert!(!dir.path().join("never").exists());
     Ok(())
 }
+
+/// `calibrate` with its defaults: the shipped model, and the fabric draped by the canonical
+/// protocol at pose 1 of the shipped model's dataset, a pose it trained on. For a fabric it
+/// trained on, the nets already lie close to that drape there, and the calibrated blend no
+/// farther; a walked drape or a pose it never saw would not lie this close.
+#[test]
+fn calibrate_defaults_to_a_training_pose_of_the_shipped_model() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("cashmere.json");
+    let stdout = stdout_of_success(
+        garmatnet()
+            .args(["calibrate", "--material", "Cashmere", "--out"])
+            .arg(&out),
+    )?;
+    assert!(stdout.contains("at 1 pose "), "{stdout}");
+    let calibration: serde_json::Value = serde_json::from_slice(&std::fs::read(&out)?)?;
+    assert_eq!(calibration["references"], 1, "{calibration}");
+    let nets = calibration["reference_error_mm"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    let blend = calibration["calibrated_reference_error_mm"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    assert!(nets < 12.0, "the nets err {nets} mm at a training pose");
+    assert!(
+        blend <= nets + 1e-6,
+        "calibrated {blend} mm, nets {nets} mm"
+    );
+    // A range past the dataset's poses is refused before any drape.
+    let bad = garmatnet()
+        .args([
+            "calibrate",
+            "--material",
+            "Cashmere",
+            "--frames",
+            "199..=200",
+            "--out",
+        ])
+        .arg(dir.path().join("never.json"))
+        .output()?;
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && stderr.contains("200"), "{stderr}");
+    assert!(!dir.path().join("never.json").exists());
+    Ok(())
+}

@@ -11,8 +11,10 @@ use garmatnet::model::{
     CalibrationSettings, DEFAULT_RIDGE, Predictor, ReferenceDrape, default_model_path,
     select_device,
 };
-use garmatnet::sim::SequenceSettings;
-use garmatnet::sim::{resolve_frames, simulate_sequence, training_motion_frames};
+use garmatnet::sim::{
+    CanonicalDraper, PoseSampler, PoseSamplerConfig, canonical_settings, frame_range,
+    resolve_frames,
+};
 use garmatnet::train::{TrainingDataset, evaluate_calibration};
 use garmatnet::{CapsuleBody, Garment, Pose};
 
@@ -35,11 +37,12 @@ pub struct CalibrateArgs {
     #[arg(long)]
     pub name: Option<String>,
     /// A pose file (.json, .npz, .npy) whose --frames are the reference poses. Default: the
-    /// shipped model's training motion (`simulate --poses 200 --seed 0 --motion brisk`),
-    /// walked from its first frame; reference poses should be poses the model was trained on.
+    /// independent poses of the shipped model's dataset (`simulate --poses 200 --seed 0`).
+    /// Reference poses should be poses the model was trained on. Each is draped on its own
+    /// by the canonical protocol, as a revision-3 dataset drapes it.
     #[arg(long)]
     pub pose: Option<String>,
-    /// The reference frames: `START..END` (END excluded), `START..=END` or `START..`.
+    /// The reference poses, by index: `START..END` (END excluded), `START..=END` or `START..`.
     #[arg(long, default_value = DEFAULT_REFERENCE_FRAMES)]
     pub frames: String,
     /// The ridge weight λ: larger keeps the calibrated fabric nearer the uncalibrated nets.
@@ -50,27 +53,29 @@ pub struct CalibrateArgs {
     pub out: PathBuf,
 }
 
-/// The default reference frames of the training motion: frame 1, a pose the shipped model
-/// was trained on (it held out every 10th frame, frame 0 among them). Three frames
-/// (`1..=3`) measured no better (book/src/experiments/calibration.md).
+/// The default reference poses: pose 1 of the shipped model's dataset, a pose it was trained
+/// on (it held out every 10th pose, pose 0 among them). Three poses measured no better with
+/// the revision-2 model (book/src/experiments/calibration.md).
 const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
+
+/// How many independent poses the shipped model's dataset has (`simulate --poses 200
+/// --seed 0`): the default reference poses are picked from these.
+const DATASET_POSES: usize = 200;
+
+/// The default reference poses that `frames` picks: independent poses of the sampler with
+/// the default seed, as `simulate --poses 200 --seed 0` draws them, each with its index.
+fn dataset_poses(frames: &str) -> Result<Vec<(usize, Pose)>> {
+    let range = frame_range(frames, DATASET_POSES, "the shipped model's dataset poses")?;
+    let sampler = PoseSampler::new(PoseSamplerConfig::default())?;
+    range.map(|i| Ok((i, sampler.pose(i as u64)?))).collect()
+}
 
 /// Runs `calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<()> {
     let material = resolve_material(args.material.as_deref(), args.omega.as_deref(), "")?;
-    // The simulator walks `walk` in order; the drapes at `reference` frames calibrate.
-    let (walk, reference): (Vec<(usize, Pose)>, Vec<usize>) = match args.pose.as_deref() {
-        Some(file) => {
-            let frames = resolve_frames(Some(file), &args.frames)?;
-            let reference = frames.iter().map(|(f, _)| *f).collect();
-            (frames, reference)
-        }
-        None => {
-            let frames = training_motion_frames(&args.frames)?;
-            let reference = frames.iter().map(|(f, _)| *f).collect();
-            let last = frames.last().map_or(0, |(f, _)| *f);
-            (training_motion_frames(&format!("0..={last}"))?, reference)
-        }
+    let reference = match args.pose.as_deref() {
+        Some(file) => resolve_frames(Some(file), &args.frames)?,
+        None => dataset_poses(&args.frames)?,
     };
     let settings = CalibrationSettings { ridge: args.ridge };
     settings.validate()?;
@@ -98,35 +103,24 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let info = &predictor.model().meta.template;
     let garment = Garment::for_template(info.resolution, &info.hash, &body)?;
     outln!(
-        "draping the fabric with the simulator at {} poses (seconds each) ...",
-        walk.len()
+        "draping the fabric with the simulator at {} pose{} (seconds each) ...",
+        reference.len(),
+        if reference.len() == 1 { "" } else { "s" }
     )?;
-    let poses: Vec<Pose> = walk.iter().map(|(_, p)| p.clone()).collect();
     let started = Instant::now();
-    let drapes = simulate_sequence(
-        &garment,
-        &body,
-        &poses,
-        &material,
-        &SequenceSettings::default(),
-    )?;
-    let simulated_s = started.elapsed().as_secs_f64();
+    let draper = CanonicalDraper::new(&garment, &body, &material, &canonical_settings())?;
     let mut references = Vec::with_capacity(reference.len());
-    for ((frame, pose), drape) in walk.into_iter().zip(drapes) {
-        if !reference.contains(&frame) {
-            continue;
-        }
-        if !drape.converged {
+    for (frame, pose) in reference {
+        let (vertices, stats) = draper.drape(&pose)?;
+        if !stats.converged {
             warnln!(
-                "warning: the simulator's drape at frame {frame} did not meet its residual \
+                "warning: the simulator's drape at pose {frame} did not meet its residual \
                  tolerance; the calibration fits it as it is"
             );
         }
-        references.push(ReferenceDrape {
-            pose,
-            vertices: drape.vertices,
-        });
+        references.push(ReferenceDrape { pose, vertices });
     }
+    let simulated_s = started.elapsed().as_secs_f64();
     let name = args
         .name
         .clone()

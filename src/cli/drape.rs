@@ -15,7 +15,9 @@ use garmatnet::model::{
     default_model_path, select_device,
 };
 use garmatnet::sim::SequenceSettings;
-use garmatnet::sim::{resolve_frames, resolve_pose, simulate_drape, simulate_sequence};
+use garmatnet::sim::{
+    canonical_settings, resolve_frames, resolve_pose, simulate_drape, simulate_sequence,
+};
 use garmatnet::{CapsuleBody, Garment, GarmentMesh, Material, Pose, TriMesh};
 
 /// Predict the T-shirt for one pose and fabric and write it.
@@ -39,7 +41,7 @@ pub struct DrapeArgs {
     /// A frame of the built-in motion sequence, a pose file (.json, .npz, .npy), `everyday`
     /// (the suite of named everyday poses: `--frame N` picks one, `--frames all` takes them
     /// all; `garmatnet simulate --poses everyday` lists their names) or `everyday:NAME` (one
-    /// of them, e.g. `everyday:hands-on-hips`). Default: the rest T-pose.
+    /// of them, e.g. `everyday:hands-on-hips`). Default: the T-pose (SMPL's zero pose).
     #[arg(long)]
     pub pose: Option<String>,
     /// Which pose of a pose file or of `--pose everyday` (default 0).
@@ -68,8 +70,9 @@ pub struct DrapeArgs {
     #[arg(long, required = true)]
     pub out: Vec<PathBuf>,
     /// Also drape with the simulator, print the error (mm) and speed-up, and write
-    /// `<out>_compare.png` next to each PNG output (prediction | simulation | error map);
-    /// with `--frames`, for every frame.
+    /// `<out>_compare.png` next to each PNG output (prediction | simulation | error map).
+    /// One pose is draped by the canonical protocol, as a revision-3 dataset drapes it;
+    /// `--frames` are walked in order, as an animation moves.
     #[arg(long)]
     pub compare: bool,
     /// Keep vertices the network put inside the body where they are.
@@ -181,9 +184,9 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
         if distance >= FAR_FROM_TRAINING {
             warnln!(
                 "warning: the material is {distance:.3} from the nearest fabric {} was trained \
-                 on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics the model never saw \
-                 erred about twice as much as nearer ones (book/src/api.md): \
-                 expect a larger error",
+                 on ({}); at {FAR_FROM_TRAINING} and beyond, fabrics models never saw \
+                 erred about twice as much as nearer ones on revision 2's data \
+                 (book/src/api.md): expect a larger error",
                 model_path.display(),
                 nearest.name
             );
@@ -255,7 +258,7 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             &body_model,
             &pose,
             &material,
-            &SequenceSettings::default(),
+            &canonical_settings(),
         )?;
         let errors = vertex_errors_mm(&garment.vertices, &sim.vertices)?;
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
@@ -377,7 +380,8 @@ fn write_sequence(
     Ok(())
 }
 
-/// Drapes `poses` with the simulator as a dataset walks them, prints how far the predicted
+/// Drapes `poses` with the simulator, walked in order as an animation moves (as revision 2's
+/// datasets and `simulate --protocol walk` drape them), prints how far the predicted
 /// `garments` lie from its drapes and how much faster they came (`predict_ms` for all of
 /// them), and returns the simulated garments.
 fn compare_sequence(
@@ -391,8 +395,9 @@ fn compare_sequence(
 ) -> Result<Vec<TriMesh>> {
     let info = &predictor.model().meta.template;
     let template = Garment::for_template(info.resolution, &info.hash, body)?;
-    // From the rest drape to the first frame, then frame to frame, as datasets are made: the
-    // drapes depend on that path (book/src/solver.md, "The ground truth's noise floor").
+    // From the rest drape to the first frame, then frame to frame, as an animation moves:
+    // the drapes depend on that path (book/src/solver.md, "The ground truth's noise floor"),
+    // so a frame's drape here need not be the canonical sample of its pose.
     outln!(
         "simulating {} frames (rest pose, then each frame in turn; seconds a frame) ...",
         frames.len()

@@ -1,14 +1,16 @@
 //! Run: `cargo run -p garmatnet-sim --release --example frame_budget -- [coarse|default|paper] [frames] [preset] [gentle|brisk]`
 //!
 //! What a fixed Newton budget per frame buys an interactive application that has the
-//! previous frame's drape. The reference is the dataset's own walk (converged at every
-//! frame). For each frame f ≥ 1 the converged drape of frame f − 1 is carried with the skin
-//! to frame f's body in one step (no intermediate poses) and given a budget of Newton
-//! iterations; each row prints the time of that step on one solver kept across frames and the
-//! mean, 95th-percentile and largest per-vertex distance (mm) to the reference at frame f.
-//! `BUDGETS=4,8` picks the budgets (default 0,1,2,4,8,16,300). `CHAIN=1` starts each frame from the previous frame's budgeted result instead of its
-//! reference, as an application stepping on its own does. `WALK=1` walks the intermediate poses instead (the dataset's steps and their iterations)
-//! before the budget. Motion seed 0 (the datasets').
+//! previous frame's drape. The reference is the walk a walked dataset makes (revision 2's,
+//! or `simulate --protocol walk`; converged at every frame). For each frame f ≥ 1 the
+//! converged drape of frame f − 1 is carried with the skin to frame f's body in one step (no
+//! intermediate poses) and given a budget of Newton iterations; each row prints the time of
+//! that step on one solver kept across frames and the mean, 95th-percentile and largest
+//! per-vertex distance (mm) to the reference at frame f. `BUDGETS=4,8` picks the budgets
+//! (default 0,1,2,4,8,16,300). `CHAIN=1` starts each frame from the previous frame's
+//! budgeted result instead of its reference, as an application stepping on its own does.
+//! `WALK=1` walks the intermediate poses instead (the walk's steps and their iterations)
+//! before the budget. Motion seed 0 (revision 2's datasets').
 
 use std::time::Instant;
 

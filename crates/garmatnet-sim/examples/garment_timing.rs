@@ -3,9 +3,10 @@
 //! Times the T-shirt's cold drape on the rest body and a short warm-started pose sequence.
 //! `FRICTION=mu` sets the friction coefficient (0: frictionless, the cloth not carried with
 //! the body, as datasets made before friction). `SEED=s` picks the built-in motion's seed
-//! (default 3; datasets use 0) and `ARM_CLEARANCE=m` its arm–torso clearance (0: the motion
-//! before the clearance existed). `MAX_SURFACE_STEP=m` walks in steps that carry the cloth
-//! at most m metres (`SequenceSettings::max_surface_step`; 0, the default, is off).
+//! (default 3; revision 2's walked datasets used 0) and `ARM_CLEARANCE=m` its arm–torso
+//! clearance (0: the motion before the clearance existed). `MAX_SURFACE_STEP=m` walks in
+//! steps that carry the cloth at most m metres (`SequenceSettings::max_surface_step`; 0, the
+//! default, is off).
 //! `STEP_EXPANSION=f` sets the line search's expansion (`DrapeSettings::step_expansion`; 1
 //! is off), `INTERMEDIATE=k` the Newton iterations per intermediate step and
 //! `CONTACT_HARDENING=m` the penalty's hardening length inside the body

@@ -76,7 +76,8 @@ impl Skeleton {
 
     /// SMPL's mean neutral joints as measured, before [`Skeleton::smpl_neutral`] makes them
     /// mirror-symmetric. The boxy T-shirt ([`crate::GarmentStyle::Boxy`]) is cut from them,
-    /// so its template (and the shipped model trained on it) is the one of earlier versions.
+    /// so its template is the one of earlier versions, and the models shipped up to version
+    /// 0.3 (revision 2's the last) that were trained on it still load.
     #[must_use]
     pub fn smpl_neutral_measured() -> Self {
         Self {

@@ -24,7 +24,8 @@
 //! # The two cuts
 //! - **Boxy** ([`GarmentStyle::Boxy`]): the construction above with generous ease (about
 //!   25 cm round the chest), a rectangular neck cut-out and sleeves along the T-pose arms.
-//!   Its mesh is bit-identical to earlier versions (the shipped model's template).
+//!   Its mesh is bit-identical to earlier versions (the template of the models shipped up
+//!   to version 0.3, revision 2's the last).
 //! - **Fitted** ([`GarmentStyle::Fitted`], the default), on the skeleton made left-right
 //!   symmetric and built for `u >= 0` then mirrored, so the mesh is exactly symmetric:
 //!   - about 2.2 cm of ease all round the chest (about 10 cm of circumference);

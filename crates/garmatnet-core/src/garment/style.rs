@@ -1,5 +1,5 @@
-//! Which T-shirt cut a [`crate::Garment`] is: the fitted shirt (the default) or the boxy
-//! shirt the first shipped model was trained on.
+//! Which T-shirt cut a [`crate::Garment`] is: the fitted shirt (the default, the shipped
+//! model's) or the boxy shirt the models shipped up to version 0.3 were trained on.
 
 use std::fmt;
 use std::str::FromStr;
@@ -18,7 +18,8 @@ pub enum GarmentStyle {
     #[default]
     Fitted,
     /// The first template: a T-shaped box with a wide rectangular neck cut-out, dressed in
-    /// the T-pose (the shipped revision-2 model was trained on it).
+    /// the T-pose (the models shipped up to version 0.3, revision 2's the last, were
+    /// trained on it).
     Boxy,
 }
 

@@ -94,8 +94,9 @@ impl Garment {
         Self::with_style(GarmentStyle::Fitted, resolution, body)
     }
 
-    /// The boxy T-shirt of the first shipped model ([`GarmentStyle::Boxy`]), dressed in the
-    /// T-pose; its mesh and [`Garment::template_hash`] are those of earlier versions.
+    /// The boxy T-shirt of the models shipped up to version 0.3 ([`GarmentStyle::Boxy`]),
+    /// dressed in the T-pose; its mesh and [`Garment::template_hash`] are those of earlier
+    /// versions.
     ///
     /// # Errors
     /// As [`Garment::with_style`].
@@ -150,7 +151,7 @@ impl Garment {
     ) -> Result<Self> {
         // The boxy shirt of earlier versions was cut from SMPL's measured joints, before the
         // neutral skeleton was made mirror-symmetric: it keeps that cut (and its template
-        // hash, which the shipped model records) on the neutral body.
+        // hash, which the models shipped up to 0.3 record) on the neutral body.
         let measured = crate::body::skeleton::Skeleton::smpl_neutral_measured();
         let cut_from = if style == GarmentStyle::Boxy
             && *body.skeleton() == crate::body::skeleton::Skeleton::smpl_neutral()

@@ -1,12 +1,14 @@
 //! A fabric described by one simulated drape instead of its ω alone.
 //!
 //! The nets take a fabric as its 6-d ω, and between their training fabrics they interpolate
-//! in ω, which says little about how a fabric drapes: on Table 2's unseen fabrics most of
-//! the error is this fabric term (book/src/results.md). One simulated
-//! drape of the fabric says more. A [`FabricCalibration`] describes the fabric as a blend of
-//! the nets' prediction for its own ω and their predictions for the model's training
-//! fabrics, with weights fitted once so that the blend reproduces a simulated drape `D` at
-//! a reference pose θ₀ (or several, stacked); the same weights then serve at every pose.
+//! in ω, which says little about how a fabric drapes: on revision 2's walks most of the
+//! error on Table 2's unseen fabrics was this fabric term
+//! (book/src/experiments/r2-shipped-model.md; on revision 3 the pose term is most of it,
+//! book/src/results.md). One simulated drape of the fabric says more. A
+//! [`FabricCalibration`] describes the fabric as a blend of the nets' prediction for its own
+//! ω and their predictions for the model's training fabrics, with weights fitted once so
+//! that the blend reproduces a simulated drape `D` at a reference pose θ₀ (or several,
+//! stacked); the same weights then serve at every pose.
 //!
 //! With `X_f(θ)` the predicted garment (both nets, before push-out) for fabric `f`, `X_*` for
 //! the fabric's own ω and `A` the matrix of columns `X_f(θ₀) − X_*(θ₀)`, the weights `v`
@@ -322,8 +324,8 @@ impl Predictor {
     /// simulator's drapes of it at one or more poses: the weights of the module docs, fitted
     /// to every reference drape at once.
     ///
-    /// Choose reference poses at which the nets are accurate, such as poses of their training
-    /// motion: the weights fit the whole gap between prediction and drape there, and a gap
+    /// Choose reference poses at which the nets are accurate, such as poses they were trained
+    /// on: the weights fit the whole gap between prediction and drape there, and a gap
     /// the nets would have for any fabric (at an unusual pose) is then carried to every pose
     /// as if the fabric made it (book/src/experiments/calibration.md).
     ///

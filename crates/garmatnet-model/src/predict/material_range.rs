@@ -5,12 +5,14 @@
 //! trained on. Outside their range it extrapolates, and an MLP extrapolates poorly: on the
 //! frictional 30 × 200 dataset, Trim Fusible Rigid (outside the 26 training fabrics in 5 of
 //! 6 components) erred by 48.9 mm where the three targets inside the range erred by about 10
-//! (book/src/results.md). [`MaterialRange`] records the training box so
-//! that callers can tell when a prediction is an extrapolation.
+//! (book/src/experiments/frictional-ground-truth.md). [`MaterialRange`] records the training
+//! box so that callers can tell when a prediction is an extrapolation.
 //!
 //! Inside the box a fabric can still lie far from every training fabric, and there the error
-//! grows with that distance: on Table 2's four targets it was 8.2 mm at 0.07 from the nearest
-//! training fabric and 16–21 mm at 0.33–0.46 (book/src/results.md).
+//! can grow with that distance: on revision 2's walks, Table 2's four targets erred 8.2 mm at
+//! 0.07 from the nearest training fabric and 16–21 mm at 0.33–0.46
+//! (book/src/experiments/r2-shipped-model.md). On revision 3's independent poses the error is
+//! flat in that distance up to 0.40 and grows beyond it (book/src/results.md).
 //! [`TrainingFabric`] records the fabrics themselves and [`nearest`] finds the nearest.
 //!
 //! ```
@@ -33,10 +35,12 @@ use serde::{Deserialize, Serialize};
 use crate::net::garmatnet_net::MATERIAL_DIM;
 
 /// Distance in normalised ω from the nearest training fabric at and beyond which a fabric is
-/// far from what a model learned. Measured on the 30 × 200 dataset over 42 (fabric, model)
-/// pairs — fabrics held out of models trained on 13, 26 or 52 fabrics (book/src/api.md) —
-/// the error over all poses of a fabric nearer than this averaged
-/// 8.7 mm (31 pairs), and 17.4 mm at or beyond it (11 pairs, none below 10.2).
+/// far from what a model learned. Measured on the revision-2 30 × 200 dataset (one walk per
+/// fabric) over 42 (fabric, model) pairs — fabrics held out of models trained on 13, 26 or
+/// 52 fabrics (book/src/api.md) — the error over all poses of a fabric nearer than this
+/// averaged 8.7 mm (31 pairs), and 17.4 mm at or beyond it (11 pairs, none below 10.2). On
+/// revision 3's independent poses the error is flat in the distance up to 0.40
+/// (book/src/results.md).
 pub const FAR_FROM_TRAINING: Real = 0.3;
 
 /// A fabric a model was trained on: its name and normalised ω.

@@ -306,10 +306,12 @@ impl Predictor {
     /// The training fabric nearest to `material` in normalised ω, with its distance (the
     /// first on a tie; `None` when the file records no training fabrics). The model has
     /// learned the drapes of its training fabrics; between them it interpolates, and its
-    /// error grows with the distance to the nearest one: on Table 2's four targets it was
-    /// 8.2 mm at 0.07 and 16–21 mm at 0.33–0.46, against 8.2 mm for the training fabrics
-    /// themselves at poses the model never saw; at [`crate::FAR_FROM_TRAINING`] and beyond,
-    /// expect about twice the error (book/src/api.md).
+    /// error can grow with the distance to the nearest one. On revision 2's walks, Table 2's
+    /// four targets erred 8.2 mm at 0.07 and 16–21 mm at 0.33–0.46, against 8.2 mm for the
+    /// training fabrics themselves at poses the model never saw, and about twice the error
+    /// at [`crate::FAR_FROM_TRAINING`] and beyond (book/src/api.md). On revision 3's
+    /// independent poses the error is flat in the distance up to 0.40 and grows beyond it
+    /// (book/src/results.md).
     #[must_use]
     pub fn nearest_training_fabric(&self, material: &Material) -> Option<(&TrainingFabric, Real)> {
         let omega = material.to_normalized();

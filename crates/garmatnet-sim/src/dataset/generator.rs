@@ -77,8 +77,9 @@ pub struct SampleDone {
     pub pose: usize,
     /// Whether the solver met its residual tolerances.
     pub converged: bool,
-    /// Wall time of the sample (milliseconds): the walk from the previous pose (or the rest
-    /// drape, for a material's first pose) plus the converge.
+    /// Wall time of the sample (milliseconds): by the canonical protocol, the path from the
+    /// rest drape to the pose plus the converge; in a walk, the walk from the previous pose
+    /// (or the rest drape, for a material's first pose) plus the converge.
     pub wall_time_ms: f64,
 }
 

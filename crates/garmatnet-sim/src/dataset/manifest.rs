@@ -21,14 +21,15 @@ pub const DATASET_FORMAT_VERSION: u32 = 1;
 /// solvers. `tests/ground_truth_revision.rs` holds a fixture of this revision's drapes and
 /// fails when they move.
 ///
-/// - **1**: the solver that made the shipped model's 30 × 200 dataset (`e4d34195bfac4646`),
-///   before revisions were recorded (its manifest has none).
+/// - **1**: the solver that made the 30 × 200 dataset (`e4d34195bfac4646`) of the model
+///   shipped before revision 2's, before revisions were recorded (its manifest has none).
 /// - **2**: the final projection out of the body takes Newton steps scaled by the distance
 ///   field's gradient length (garmatnet-core's `push_outside`), so it reaches the surface in
 ///   the blend regions of the body's capsules. A vertex left inside the body in a crevice
 ///   lands elsewhere than in revision 1, and a walk continues from there: Felt's drapes along
 ///   the brisk motion (default resolution, seed 0) equal revision 1's to frame 6 and differ
-///   by up to 17 mm from frame 7 on.
+///   by up to 17 mm from frame 7 on. The model shipped up to version 0.3 learned this
+///   revision's walks.
 /// - **3**: each sample is draped on its own by the canonical protocol
 ///   ([`crate::CanonicalDraper`], recorded as [`DatasetSpec::protocol`]), so a drape is a
 ///   function of (pose, fabric, settings) and not of the walk that reached it; the T-shirt is
@@ -94,8 +95,10 @@ pub struct SampleStats {
     pub max_depth_before_projection_m: Option<f64>,
     /// Largest edge strain (relative length change, dimensionless).
     pub max_strain: f64,
-    /// Wall-clock time of the sample (milliseconds): the walk from the previous pose (or the
-    /// rest drape, for a material's first pose) plus the final converge.
+    /// Wall-clock time of the sample (milliseconds): by the canonical protocol, the path
+    /// from the rest drape to the pose plus the final converge (the rest drape itself not
+    /// included); in a walk, the walk from the previous pose (or the rest drape, for a
+    /// material's first pose) plus the final converge.
     pub wall_time_ms: f64,
     /// Whether the solver met its tolerance.
     pub converged: bool,

@@ -202,8 +202,9 @@ pub struct DatasetReport {
     pub max_stretch: Option<Summary>,
     /// Newton iterations of each sample's final converge.
     pub iterations: Summary,
-    /// Solver time per sample (seconds of one worker: the walk from the previous pose plus
-    /// the converge), as recorded while the dataset was made, the machine's load included.
+    /// Solver time per sample (seconds of one worker: the path to the pose, from the rest
+    /// drape by the canonical protocol or from the previous pose in a walk, plus the
+    /// converge), as recorded while the dataset was made, the machine's load included.
     pub solver_seconds: Summary,
     /// Samples with a structural or shear spring stretched past [`SOUND_STRETCH`] (torn or
     /// snagged cloth, e.g. pulled apart where an arm meets the torso), as (stem, stretch),

@@ -1,9 +1,10 @@
 //! Building a dataset on an existing one: the samples of the fabrics both have are copied,
 //! not draped again.
 //!
-//! A sample is the end of a walk through the poses in order, so it depends only on its
-//! material, the poses, the template, the body and the solver and smoothing settings — not
-//! on which other materials share the dataset. A dataset with more fabrics (denser
+//! A sample depends only on its material, its pose (by the canonical protocol; in a walk,
+//! the end of the walk through the poses in order, on the poses before it too), the
+//! template, the body and the solver and smoothing settings — not on which other materials
+//! share the dataset. A dataset with more fabrics (denser
 //! coverage of ω, the lever for unseen fabrics) can therefore start from the samples of one
 //! made with the same poses and settings, and drape only what is new.
 

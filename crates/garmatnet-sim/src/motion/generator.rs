@@ -1,11 +1,14 @@
 //! A procedural, seeded "dance": smooth sequences of static poses within the joint limits.
 //!
-//! The dataset needs many poses that (a) stay inside [`JointLimits`] so the solver can drape
-//! them, (b) change smoothly from frame to frame so the solver can walk from one static pose
-//! to the next (it interpolates in steps of about 1 cm of body motion, see
-//! [`interpolation_steps`]), and (c) differ enough between consecutive frames that holding
-//! out every 10th frame tests generalisation to new poses, not interpolation between two
-//! near-copies of it.
+//! The walked datasets of revisions 1 and 2 (`simulate --motion brisk|gentle`) needed many
+//! poses that (a) stay inside [`JointLimits`] so the solver can drape them, (b) change
+//! smoothly from frame to frame so the solver can walk from one static pose to the next (it
+//! interpolates in steps of about 1 cm of body motion, see [`interpolation_steps`]), and (c)
+//! differ enough between consecutive frames that holding out every 10th frame tests more
+//! than interpolation between two near-copies of it. Revision 3's datasets draw independent
+//! poses instead ([`crate::PoseSampler`]): a held-out frame of a walk still lies between two
+//! training frames of it (book/src/ground-truth.md). The walk stays for animations and for
+//! a held-out motion.
 //!
 //! [`MotionGenerator`] draws keyframes, each with one or two [`MotionTheme`]s (arm raises,
 //! arm swings, torso bends and twists, leg steps, neutral) over a small random background,
@@ -115,7 +118,8 @@ impl MotionTheme {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum MotionPace {
     /// Keyframes every 2–3 frames, at most 0.6 rad per joint per frame: consecutive frames
-    /// are distinct poses, so a held-out frame is a real generalisation test (the default).
+    /// are distinct poses (the default; revision 2's datasets walked it). A held-out frame
+    /// still lies between two training frames of the same walk.
     #[default]
     Brisk,
     /// Keyframes every 8–15 frames, at most 0.1 rad per joint per frame: the motion of

@@ -112,16 +112,17 @@ fn pose_list(spec: &str) -> Result<Vec<Pose>> {
     Ok(read_poses(Path::new(spec))?)
 }
 
-/// The frames of the shipped model's training motion: [`DEFAULT_MOTION_SEED`],
-/// [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm clearance, the poses of
-/// `garmatnet simulate --poses 200 --seed 0 --motion brisk` (the default before independent
-/// poses). `frames` as in [`resolve_frames`].
+/// The frames of the revision-2 model's training walk (the model shipped up to version 0.3):
+/// [`DEFAULT_MOTION_SEED`], [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm
+/// clearance, the poses of `garmatnet simulate --poses 200 --seed 0 --motion brisk` (the
+/// default before independent poses). The model shipped now (revision 3) was trained on
+/// independent poses of the sampler, not on these frames. `frames` as in [`resolve_frames`].
 ///
 /// # Errors
 /// As [`resolve_frames`].
 pub fn training_motion_frames(frames: &str) -> Result<Vec<(usize, Pose)>> {
     let poses = MotionGenerator::new(DEFAULT_MOTION_SEED, SHIPPED_TRAINING_FRAMES).generate();
-    picked_frames(poses, frames, "the shipped model's training motion")
+    picked_frames(poses, frames, "the revision-2 model's training walk")
 }
 
 /// The poses of `poses` (from `source`) that `frames` picks ([`frame_range`]), each with its
@@ -136,8 +137,9 @@ fn picked_frames(poses: Vec<Pose>, frames: &str, source: &str) -> Result<Vec<(us
         .collect())
 }
 
-/// The number of frames of the motion the shipped model was trained on
-/// ([`training_motion_frames`]).
+/// The number of frames of the walk the revision-2 model (shipped up to version 0.3) was
+/// trained on ([`training_motion_frames`]). The name is older than revision 3: the model
+/// shipped now was trained on independent poses, not on this walk.
 pub const SHIPPED_TRAINING_FRAMES: usize = 200;
 
 /// The poses `text` (`START..END`, `START..=END`, `START..` or `all`) picks of `count`, from

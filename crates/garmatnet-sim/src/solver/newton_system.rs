@@ -364,8 +364,8 @@ mod tests {
         // Measured: 2.49 M factor entries against minimum degree's 2.90 M at paper
         // resolution (factorisation 29 vs 38 ms); at default resolution minimum degree wins
         // narrowly (1.51 vs 1.56 M) and is kept, so default-resolution drapes are unchanged.
-        // Measured on the boxy shirt, whose default-resolution drapes must not change (the
-        // shipped model's data).
+        // Measured on the boxy shirt, whose default-resolution drapes must not change
+        // (revision 2's datasets, which the models shipped up to version 0.3 learned).
         let boxy = |resolution| {
             let body = CapsuleBody::smpl_neutral();
             let garment = Garment::boxy_tshirt(resolution, &body).unwrap();

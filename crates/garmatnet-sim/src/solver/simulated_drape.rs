@@ -1,11 +1,15 @@
-//! The simulator's drape of what a prediction is compared with: one pose, or a sequence of
-//! poses walked as a dataset walks them, timed.
+//! The simulator's drape of what a prediction is compared with, timed: one pose by the
+//! canonical protocol, as a revision-3 dataset drapes it, or a sequence of poses walked in
+//! order, as an animation moves.
 
 use std::time::Instant;
 
-use garmatnet_core::{CapsuleBody, Error as CoreError, Garment, Material, Pose, Real, Vec3};
+use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Real, Vec3};
 
 use crate::error::Result;
+use crate::solver::canonical::CanonicalDraper;
+#[cfg(doc)]
+use crate::solver::canonical::canonical_settings;
 use crate::solver::garment_drape::{SequenceSettings, drape_sequence};
 
 /// The simulator's drape of one (pose, material): the ground truth a prediction is compared
@@ -14,14 +18,18 @@ use crate::solver::garment_drape::{SequenceSettings, drape_sequence};
 pub struct SimulatedDrape {
     /// The settled garment (metres).
     pub vertices: Vec<Vec3>,
-    /// Wall-clock time of the whole drape: rest drape, walk to the pose, converge (ms).
+    /// Wall-clock time of the whole drape (ms): the rest drape, the path (or walk) to the
+    /// pose, the converge.
     pub wall_ms: Real,
     /// Whether the final converge met the residual tolerances.
     pub converged: bool,
 }
 
-/// Drapes `garment` of `material` on `body` at `pose` with the dataset generator's solver and
-/// settings (from the rest garment, through intermediate poses), on this thread.
+/// Drapes `garment` of `material` on `body` at `pose` by the canonical protocol of
+/// ground-truth revision 3 ([`CanonicalDraper`]: the rest drape carried along the canonical
+/// path to `pose`, then converged), on this thread. With [`canonical_settings`] this is
+/// bit for bit the sample a revision-3 dataset holds for (pose, fabric), whatever dataset
+/// made it.
 ///
 /// # Errors
 /// The solver's errors, e.g. a material outside the physical range.
@@ -32,26 +40,17 @@ pub fn simulate_drape(
     material: &Material,
     settings: &SequenceSettings,
 ) -> Result<SimulatedDrape> {
-    // One pose: its drape's time runs from the start, rest drape and walk included.
-    simulate_sequence(
-        garment,
-        body,
-        std::slice::from_ref(pose),
-        material,
-        settings,
-    )?
-    .pop()
-    .ok_or_else(|| {
-        CoreError::Mismatch {
-            what: "drapes returned by the simulator".into(),
-            expected: "1".into(),
-            got: "0".into(),
-        }
-        .into()
+    // One pose: its drape's time runs from the start, rest drape included.
+    let started = Instant::now();
+    let (vertices, stats) = CanonicalDraper::new(garment, body, material, settings)?.drape(pose)?;
+    Ok(SimulatedDrape {
+        vertices,
+        wall_ms: started.elapsed().as_secs_f64() * 1e3,
+        converged: stats.converged,
     })
 }
 
-/// The simulator's drapes along `poses`, in order, as a dataset walks them
+/// The simulator's drapes along `poses`, in order, as an animation walks them
 /// ([`drape_sequence`]: the rest drape, then each pose reached through intermediate poses and
 /// converged): the ground truth to hold a predicted sequence against. Each drape's `wall_ms`
 /// is the time since the previous one (the first includes the rest drape).
@@ -88,10 +87,11 @@ pub fn simulate_sequence(
 mod tests {
     use super::*;
     use crate::motion::generator::MotionGenerator;
+    use crate::solver::canonical::canonical_settings;
     use garmatnet_core::Resolution;
 
     #[test]
-    fn a_simulated_sequence_walks_as_a_single_drape_does() -> anyhow::Result<()> {
+    fn a_simulated_sequence_walks_from_the_rest_drape() -> anyhow::Result<()> {
         let body = CapsuleBody::smpl_neutral();
         let shirt = Garment::tshirt(Resolution::Coarse, &body)?;
         let motion = MotionGenerator::new(0, 240).generate();
@@ -99,12 +99,29 @@ mod tests {
         let settings = SequenceSettings::default();
         let drapes = simulate_sequence(&shirt, &body, &motion[2..4], &silk, &settings)?;
         assert_eq!(drapes.len(), 2);
-        // Its first frame is the single drape of that pose: the same walk from rest.
-        let single = simulate_drape(&shirt, &body, &motion[2], &silk, &settings)?;
-        assert_eq!(drapes[0].vertices, single.vertices);
-        assert_eq!(drapes[0].converged, single.converged);
         assert_ne!(drapes[1].vertices, drapes[0].vertices);
         assert!(drapes.iter().all(|d| d.wall_ms > 0.0));
+        assert!(
+            drapes
+                .iter()
+                .all(|d| d.vertices.iter().all(|v| v.iter().all(|c| c.is_finite())))
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn a_simulated_drape_is_the_canonical_sample() -> anyhow::Result<()> {
+        let body = CapsuleBody::smpl_neutral();
+        let shirt = Garment::tshirt(Resolution::Coarse, &body)?;
+        let pose = MotionGenerator::new(0, 240).generate()[3].clone();
+        let silk = Material::preset("Silk Chiffon")?;
+        let settings = canonical_settings();
+        let single = simulate_drape(&shirt, &body, &pose, &silk, &settings)?;
+        let (sample, stats) =
+            CanonicalDraper::new(&shirt, &body, &silk, &settings)?.drape(&pose)?;
+        assert_eq!(single.vertices, sample);
+        assert_eq!(single.converged, stats.converged);
+        assert!(single.wall_ms > 0.0);
         Ok(())
     }
 }

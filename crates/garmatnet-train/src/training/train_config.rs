@@ -102,8 +102,8 @@ impl Default for TrainConfig {
             alpha: 0.5,
             scale_free_material: false,
             pose_encoding: PoseEncoding::AxisAngle,
-            // Canonical won on the 30 x 200 dataset: whole-test error 10.52 vs 10.97 mm
-            // (book/src/results.md).
+            // Canonical won on the gentle 30 x 200 dataset: whole-test error 10.52 vs
+            // 10.97 mm (book/src/experiments/gentle-dataset.md).
             displacement_frame: DisplacementFrame::Canonical,
             split: SplitConfig::default(),
             allow_incomplete_dataset: false,
