@@ -1500,3 +1500,21 @@ fn calibrate_defaults_to_a_training_pose_of_the_shipped_model() -> anyhow::Resul
     assert!(!dir.path().join("never.json").exists());
     Ok(())
 }
+
+/// `body` notes a pose past the limits training poses are drawn within, and no other: every
+/// pose of the everyday suite lies within them.
+#[test]
+fn body_notes_only_poses_past_the_training_limits() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let obj = dir.path().join("body.obj");
+    for name in garmatnet::sim::everyday_pose_names() {
+        let out = garmatnet()
+            .args(["body", "--pose", &format!("everyday:{name}"), "--out"])
+            .arg(&obj)
+            .output()?;
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {stderr}");
+        assert!(stderr.is_empty(), "{name}: {stderr}");
+    }
+    Ok(())
+}

@@ -322,6 +322,8 @@ fn held_out_set(
     let mut errors = Vec::new();
     let mut quality = QualityAccumulator::new(set.garment(), set.spec())?;
     let keys = set.keys();
+    // `records()` is in `keys()`'s order: whether each truth met the solver's tolerance.
+    let converged: Vec<bool> = set.records().iter().map(|r| r.stats.converged).collect();
     let polish_every = polish_stride(keys.len(), config.newton_samples);
     for (chunk, keys) in keys.chunks(64).enumerate() {
         let preds = predict_garmatnet(model, &set, keys, device)?;
@@ -359,10 +361,22 @@ fn held_out_set(
             )
         })
         .collect();
+    let unconverged = converged.iter().filter(|&&c| !c).count();
+    let converged_only = (unconverged > 0 && unconverged < converged.len()).then(|| {
+        error_stats(
+            errors
+                .iter()
+                .zip(&converged)
+                .filter(|(_, c)| **c)
+                .map(|((_, e), _)| e),
+        )
+    });
     Ok(HeldOutSet {
         name: name.to_owned(),
         dir: dir.display().to_string(),
         all: error_stats(errors.iter().map(|(_, e)| e)),
+        unconverged,
+        converged_only,
         training_fabrics: part(true),
         unseen_fabrics: part(false),
         physical_quality: quality.finish(),
@@ -703,6 +717,19 @@ mod tests {
         let wq = whole.physical_quality.unwrap();
         assert_eq!(wq.samples, whole.all.samples);
         assert_eq!(wq.newton.unwrap().samples, 2);
+        // Its unconverged truths are counted; the converged-only row, when there is one,
+        // holds the rest.
+        let records = TrainingDataset::open(&data, true).unwrap();
+        let unconverged = records
+            .records()
+            .iter()
+            .filter(|r| !r.stats.converged)
+            .count();
+        assert_eq!(whole.unconverged, unconverged);
+        match &whole.converged_only {
+            Some(c) => assert_eq!(c.samples + unconverged, whole.all.samples),
+            None => assert!(unconverged == 0 || unconverged == whole.all.samples),
+        }
         // Its rows per fabric partition it; an unseen fabric names the nearest training
         // fabric at the same distance as in the test set's rows, a training fabric none.
         // (Every fabric of this dataset has a test sample, so both list every fabric.)

@@ -204,6 +204,15 @@ pub struct HeldOutSet {
     pub dir: String,
     /// Every sample of the set.
     pub all: ErrorStats,
+    /// How many of its true drapes stopped at the solver's iteration cap before meeting its
+    /// residual tolerance. They count in [`HeldOutSet::all`], as unsettled samples count in
+    /// the test set: they are the solver's drape all the same.
+    #[serde(default)]
+    pub unconverged: usize,
+    /// Its samples whose true drape met the solver's tolerance, when some did not (`None`
+    /// when all did, or none).
+    #[serde(default)]
+    pub converged_only: Option<ErrorStats>,
     /// Its samples of fabrics the model trained on; `None` if it has none.
     pub training_fabrics: Option<ErrorStats>,
     /// Its samples of fabrics the model never saw; `None` if it has none.

@@ -97,6 +97,13 @@ impl Report {
                     error_row(&mut s, &format!("GarMatNet, {}{part}", set.name), e);
                 }
             }
+            if let Some(e) = &set.converged_only {
+                let name = format!(
+                    "GarMatNet, {}, converged truth only ({} left out)",
+                    set.name, set.unconverged
+                );
+                error_row(&mut s, &name, e);
+            }
         }
         if let Some(f) = &self.fabric_lookup {
             let nearest: Vec<String> = f
