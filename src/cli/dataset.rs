@@ -60,9 +60,10 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             }
             if !report.is_sound() {
                 outln!(
-                    "not sound: {} samples past the sound stretch (listed above): torn or \
-                     snagged drapes, not fit to learn from",
-                    report.over_stretched.len()
+                    "not sound: {} samples past the sound stretch (torn or snagged drapes) and \
+                     {} asymmetric at a symmetric pose (listed above): not fit to learn from",
+                    report.over_stretched.len(),
+                    report.asymmetric.len()
                 )?;
             }
             Ok(())

@@ -17,7 +17,9 @@ pub use dataset::manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, GROUND_TRUTH_REVISION, Manifest, MaterialEntry,
     SampleRecord, SampleStats, SmoothingInfo, manifest_path, revision_label, sample_stem,
 };
-pub use dataset::reader::{DatasetReader, DatasetReport, SOUND_STRETCH, Summary, check};
+pub use dataset::reader::{
+    DatasetReader, DatasetReport, SOUND_ASYMMETRY_M, SOUND_STRETCH, Summary, check,
+};
 pub use dataset::reuse::{ImportReport, import_samples};
 pub use dataset::sample_arrays::SampleArrays;
 pub use dataset::sample_deriver::{BODY_NAME, SampleDeriver};
