@@ -1458,8 +1458,8 @@ fn simulate_draws_independent_poses_by_default_and_keeps_the_walk() -> anyhow::R
 
 /// `calibrate` with its defaults: the shipped model, and the fabric draped by the canonical
 /// protocol at pose 1 of the shipped model's dataset, a pose it trained on. For a fabric it
-/// trained on, the nets already lie close to that drape there, and the calibrated blend no
-/// farther; a walked drape or a pose it never saw would not lie this close.
+/// trained on, the nets lie close to that drape there, as close as on their development set;
+/// at unseen poses they err about twice that (book/src/results.md).
 #[test]
 fn calibrate_defaults_to_a_training_pose_of_the_shipped_model() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
@@ -1478,11 +1478,11 @@ fn calibrate_defaults_to_a_training_pose_of_the_shipped_model() -> anyhow::Resul
     let blend = calibration["calibrated_reference_error_mm"]
         .as_f64()
         .unwrap_or(f64::NAN);
+    // Measured: 6.80 mm, the calibrated blend 5.80 (the model's development set: 7.56).
     assert!(nets < 12.0, "the nets err {nets} mm at a training pose");
-    assert!(
-        blend <= nets + 1e-6,
-        "calibrated {blend} mm, nets {nets} mm"
-    );
+    // The blend is fitted in squared distance, the figure is the mean distance: close to
+    // the nets, not necessarily below them.
+    assert!(blend < nets + 1.0, "calibrated {blend} mm, nets {nets} mm");
     // A range past the dataset's poses is refused before any drape.
     let bad = garmatnet()
         .args([
@@ -1496,7 +1496,10 @@ fn calibrate_defaults_to_a_training_pose_of_the_shipped_model() -> anyhow::Resul
         .arg(dir.path().join("never.json"))
         .output()?;
     let stderr = String::from_utf8_lossy(&bad.stderr);
-    assert!(!bad.status.success() && stderr.contains("200"), "{stderr}");
+    assert!(
+        !bad.status.success() && stderr.contains("outside the allowed range [0, 199]"),
+        "{stderr}"
+    );
     assert!(!dir.path().join("never.json").exists());
     Ok(())
 }

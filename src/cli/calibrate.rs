@@ -62,6 +62,12 @@ const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
 /// --seed 0`): the default reference poses are picked from these.
 const DATASET_POSES: usize = 200;
 
+/// The shipped model (0.4) trained on that dataset's first 101 poses, holding out every
+/// 10th: a default reference pose outside them is one it never trained on.
+fn shipped_model_trained_on(pose: usize) -> bool {
+    pose <= 100 && pose % 10 != 0
+}
+
 /// The default reference poses that `frames` picks: independent poses of the sampler with
 /// the default seed, as `simulate --poses 200 --seed 0` draws them, each with its index.
 fn dataset_poses(frames: &str) -> Result<Vec<(usize, Pose)>> {
@@ -75,7 +81,17 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let material = resolve_material(args.material.as_deref(), args.omega.as_deref(), "")?;
     let reference = match args.pose.as_deref() {
         Some(file) => resolve_frames(Some(file), &args.frames)?,
-        None => dataset_poses(&args.frames)?,
+        None => {
+            let poses = dataset_poses(&args.frames)?;
+            if let Some((i, _)) = poses.iter().find(|(i, _)| !shipped_model_trained_on(*i)) {
+                warnln!(
+                    "warning: pose {i} of the shipped model's dataset is not one it trained on \
+                     (it trained on poses 1-100 but every 10th): a reference pose the nets do \
+                     not know well makes the calibration worse"
+                );
+            }
+            poses
+        }
     };
     let settings = CalibrationSettings { ridge: args.ridge };
     settings.validate()?;

@@ -12,6 +12,7 @@ use crate::dataset::manifest::{
 use crate::dataset::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
 use crate::dataset::sample_deriver::SampleDeriver;
 use crate::dataset::writer::{samples_dir, scan_samples};
+use crate::solver::canonical::DrapeProtocol;
 use crate::solver::mirror_symmetry::MirrorMap;
 
 /// A dataset opened for reading. Samples come from their completion markers, so a directory
@@ -214,8 +215,9 @@ pub struct DatasetReport {
     /// not a drape to learn from unseen.
     pub over_stretched: Vec<(String, f64)>,
     /// How many samples lie at a pose that is its own mirror image (`Pose::mirrored`), where
-    /// the drape's mirror asymmetry was measured; 0 when this build cannot rebuild the
-    /// dataset's template or the template is not mirror-symmetric.
+    /// the drape's mirror asymmetry was measured; 0 for a walked dataset (a walked drape
+    /// depends on the poses before it), a template this build cannot rebuild, or one that is
+    /// not mirror-symmetric (the boxy shirt).
     pub symmetric_samples: usize,
     /// Samples at a pose that is its own mirror whose drape is farther than
     /// [`SOUND_ASYMMETRY_M`] from its mirror image, as (stem, mean asymmetry in metres), worst
@@ -284,8 +286,9 @@ impl DatasetReport {
         self.missing.is_empty() && self.corrupt.is_empty() && self.non_finite_values == 0
     }
 
-    /// Whether the dataset [is ok](DatasetReport::is_ok) and no sample is stretched past
-    /// [`SOUND_STRETCH`]: every drape fit to learn from.
+    /// Whether the dataset [is ok](DatasetReport::is_ok), no sample is stretched past
+    /// [`SOUND_STRETCH`] and none lies past [`SOUND_ASYMMETRY_M`] from its mirror image at a
+    /// symmetric pose: every drape fit to learn from.
     #[must_use]
     pub fn is_sound(&self) -> bool {
         self.is_ok() && self.over_stretched.is_empty() && self.asymmetric.is_empty()
@@ -423,8 +426,11 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     let spec = reader.spec();
     let deriver = SampleDeriver::for_spec(spec).ok();
     let springs = deriver.as_ref().map(stretch_springs);
+    // Only a canonical drape is defined by its pose alone: a walked drape at a symmetric
+    // pose carries the asymmetric poses walked before it.
     let mirror = deriver
         .as_ref()
+        .filter(|_| spec.protocol == DrapeProtocol::Canonical)
         .and_then(|d| MirrorMap::of_garment(d.garment()).ok());
     let symmetric_pose: Vec<bool> = spec.poses.iter().map(|p| p.mirrored() == *p).collect();
     let mut corrupt = Vec::new();
@@ -598,6 +604,7 @@ mod tests {
         let garment = Garment::tshirt(Resolution::Coarse, &CapsuleBody::smpl_neutral()).unwrap();
         let mut spec = tiny_spec();
         spec.template = garmatnet_core::TemplateInfo::of(&garment);
+        spec.protocol = DrapeProtocol::Canonical;
         // Poses 0 and 1 are their own mirror; pose 2 is not (spec.poses[2], sampled).
         spec.poses[0] = garmatnet_core::Pose::zero();
         spec.poses[1] = garmatnet_core::Pose::zero();
@@ -615,29 +622,57 @@ mod tests {
                 simulated: x,
             }
         };
+        // Every sample of the 3 x 4 dataset: centred, except (0, 1), 15 mm to one side
+        // (30 mm from its mirror image), (1, 0), 9 mm (18 mm: sound), and (0, 2) at a pose
+        // that is not its own mirror, where a 5 cm shift is not measured.
+        let write = |dir: &Path, spec: DatasetSpec| {
+            let w = DatasetWriter::open(dir, spec).unwrap();
+            for m in 0..3 {
+                for p in 0..4 {
+                    let dx = match (m, p) {
+                        (0, 1) => 0.015,
+                        (1, 0) => 0.009,
+                        (0, 2) => 0.05,
+                        _ => 0.0,
+                    };
+                    w.write_sample(m, p, &shifted(dx), stats(0.0)).unwrap();
+                }
+            }
+        };
+        let symmetric_poses = spec.poses.iter().filter(|p| p.mirrored() == **p).count();
         let dir = tempfile::tempdir().unwrap();
-        let w = DatasetWriter::open(dir.path(), spec).unwrap();
-        w.write_sample(0, 0, &shifted(0.0), stats(0.0)).unwrap();
-        // 9 mm to one side reads 18 mm: sound; 15 mm reads 30 mm: not.
-        w.write_sample(1, 0, &shifted(0.009), stats(0.0)).unwrap();
-        w.write_sample(0, 1, &shifted(0.015), stats(0.0)).unwrap();
-        // At a pose that is not its own mirror, a shift is not measured.
-        w.write_sample(0, 2, &shifted(0.05), stats(0.0)).unwrap();
-
+        write(dir.path(), spec.clone());
         let report = check(dir.path()).unwrap();
         assert!(report.is_ok(), "{report}");
-        assert_eq!(report.symmetric_samples, 3, "{report}");
+        assert_eq!(report.symmetric_samples, 3 * symmetric_poses, "{report}");
         assert_eq!(report.asymmetric.len(), 1, "{report}");
         let (stem, asymmetry) = &report.asymmetric[0];
         assert_eq!(stem, &crate::sample_stem(0, 1));
-        assert!((asymmetry - 0.030).abs() < 1e-6, "{asymmetry}");
-        assert!(!report.is_sound(), "{report}");
+        approx::assert_relative_eq!(*asymmetry, 0.030, epsilon = 1e-6);
+        assert!(report.over_stretched.is_empty(), "{report}");
+        assert!(
+            !report.is_sound(),
+            "only the asymmetric drape makes it unsound: {report}"
+        );
         let text = report.to_string();
         assert!(
             text.contains("asymmetric (a drape at a pose that is its own mirror"),
             "{text}"
         );
         assert!(text.contains(": 30.0 mm"), "{text}");
+        // The same drapes in a walked dataset are not measured: a walked drape depends on the
+        // poses before it. With nothing else wrong, that dataset is sound.
+        let walked = tempfile::tempdir().unwrap();
+        write(
+            walked.path(),
+            DatasetSpec {
+                protocol: DrapeProtocol::Walk,
+                ..spec
+            },
+        );
+        let report = check(walked.path()).unwrap();
+        assert_eq!(report.symmetric_samples, 0, "{report}");
+        assert!(report.is_sound(), "{report}");
     }
 
     #[test]

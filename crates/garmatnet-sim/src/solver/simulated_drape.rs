@@ -27,9 +27,9 @@ pub struct SimulatedDrape {
 
 /// Drapes `garment` of `material` on `body` at `pose` by the canonical protocol of
 /// ground-truth revision 3 ([`CanonicalDraper`]: the rest drape carried along the canonical
-/// path to `pose`, then converged), on this thread. With [`canonical_settings`] this is
-/// bit for bit the sample a revision-3 dataset holds for (pose, fabric), whatever dataset
-/// made it.
+/// path to `pose`, then converged, rounded to f32), on this thread. With
+/// [`canonical_settings`] and the dataset's template and body, this is the sample a
+/// revision-3 dataset made with the default settings holds for (pose, fabric).
 ///
 /// # Errors
 /// The solver's errors, e.g. a material outside the physical range.

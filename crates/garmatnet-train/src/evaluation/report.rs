@@ -204,8 +204,8 @@ pub struct HeldOutSet {
     pub dir: String,
     /// Every sample of the set.
     pub all: ErrorStats,
-    /// How many of its true drapes stopped at the solver's iteration cap before meeting its
-    /// residual tolerance. They count in [`HeldOutSet::all`], as unsettled samples count in
+    /// How many of its true drapes did not meet the solver's residual tolerance (stopped at
+    /// its iteration cap; `converged: false` in their stats). They count in [`HeldOutSet::all`], as unsettled samples count in
     /// the test set: they are the solver's drape all the same.
     #[serde(default)]
     pub unconverged: usize,
