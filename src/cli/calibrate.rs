@@ -65,7 +65,7 @@ const DATASET_POSES: usize = 200;
 /// The shipped model (0.4) trained on that dataset's first 101 poses, holding out every
 /// 10th: a default reference pose outside them is one it never trained on.
 fn shipped_model_trained_on(pose: usize) -> bool {
-    pose <= 100 && pose % 10 != 0
+    pose <= 100 && !pose.is_multiple_of(10)
 }
 
 /// The default reference poses that `frames` picks: independent poses of the sampler with
