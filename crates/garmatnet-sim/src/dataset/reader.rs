@@ -4,12 +4,12 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use garmatnet_core::{Error, Result, Spring, SpringKind, Vec3};
+use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::manifest::{
     DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, revision_label,
 };
-use crate::dataset::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy};
+use crate::dataset::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy, solver_positions};
 use crate::dataset::sample_deriver::SampleDeriver;
 use crate::dataset::writer::{samples_dir, scan_samples};
 use crate::solver::canonical::DrapeProtocol;
@@ -447,13 +447,8 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
                     stretch.push((record.stem.clone(), strain));
                 }
                 if let Some(map) = mirror.as_ref().filter(|_| symmetric_pose[record.pose]) {
-                    let drape: Vec<Vec3> = arrays
-                        .simulated
-                        .iter()
-                        .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
-                        .collect();
                     // A drape of the wrong length is already reported as corrupt.
-                    if let Ok(asymmetry) = map.asymmetry(&drape) {
+                    if let Ok(asymmetry) = map.asymmetry(&solver_positions(&arrays.simulated)) {
                         symmetric_samples += 1;
                         if asymmetry > SOUND_ASYMMETRY_M {
                             asymmetric.push((record.stem.clone(), asymmetry));

@@ -95,10 +95,15 @@ pub fn write_points_npy(path: &Path, points: &[[f32; 3]]) -> Result<()> {
 /// As [`read_points_npy`].
 pub(crate) fn read_simulated(sample_dir: &Path, sample: &str) -> Result<Vec<Vec3>> {
     let points = read_points_npy(&sample_dir.join("simulated.npy"), sample)?;
-    Ok(points
+    Ok(solver_positions(&points))
+}
+
+/// Stored float32 points as solver positions (f64).
+pub(crate) fn solver_positions(points: &[[f32; 3]]) -> Vec<Vec3> {
+    points
         .iter()
         .map(|p| Vec3::new(p[0].into(), p[1].into(), p[2].into()))
-        .collect())
+        .collect()
 }
 
 /// Reads a float32 `[n, 3]` `.npy` (C order), naming `sample` in errors. Finiteness is not

@@ -205,8 +205,9 @@ pub struct HeldOutSet {
     /// Every sample of the set.
     pub all: ErrorStats,
     /// How many of its true drapes did not meet the solver's residual tolerance (stopped at
-    /// its iteration cap; `converged: false` in their stats). They count in [`HeldOutSet::all`], as unsettled samples count in
-    /// the test set: they are the solver's drape all the same.
+    /// its iteration cap; `converged: false` in their stats). They count in
+    /// [`HeldOutSet::all`], as unsettled samples count in the test set: they are the solver's
+    /// drape all the same.
     #[serde(default)]
     pub unconverged: usize,
     /// Its samples whose true drape met the solver's tolerance, when some did not (`None`
