@@ -2,7 +2,8 @@
 //! groups again, named `..._gpu...`, when a wgpu adapter answers; without one they are skipped
 //! with a message)
 //!
-//! Prediction speed of the full pipeline (body skinning + nets + assembly + push-out) at
+//! Prediction speed of the full pipeline (body skinning + nets on the pose and its mirror
+//! image + mirror averaging + assembly + push-out; `Full_no_mirror` without the mirror) at
 //! batch 1 and 64 (and 1024 with the rank-128 head), `Detail::Full` and `Detail::Smooth`,
 //! default and paper resolutions, with the paper-sized nets (hidden 512/64/512), full-width
 //! and with a rank-128 output head; a 100-character `Scene` with mixed detail where 10 % of
@@ -152,6 +153,22 @@ fn bench_predict_on(c: &mut Criterion, device_name: &str, device: &Device) {
                 });
             }
         }
+        // The raw nets, without mirror averaging's second pose (`drape --no-mirror-averaging`).
+        let raw = self::predictor(resolution, rank, device)
+            .0
+            .with_mirror_averaging(false)
+            .expect("averaging off");
+        group.throughput(Throughput::Elements(1));
+        group.bench_function(BenchmarkId::new("Full_no_mirror", "batch1"), |b| {
+            b.iter(|| {
+                raw.predict(&one[0].0, &one[0].1, Detail::Full)
+                    .expect("prediction")
+            })
+        });
+        group.throughput(Throughput::Elements(64));
+        group.bench_function(BenchmarkId::new("Full_no_mirror", "batch64"), |b| {
+            b.iter(|| raw.predict_batch(&batch, Detail::Full).expect("prediction"))
+        });
         group.finish();
     }
 }

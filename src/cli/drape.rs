@@ -78,6 +78,11 @@ pub struct DrapeArgs {
     /// Keep vertices the network put inside the body where they are.
     #[arg(long)]
     pub no_push_out: bool,
+    /// Predict without mirror averaging: the nets' garment at the pose alone, not averaged
+    /// with the mirror image of their garment at the mirrored pose (half the nets' time; a
+    /// symmetric pose may then get a lopsided garment).
+    #[arg(long)]
+    pub no_mirror_averaging: bool,
 }
 
 /// Runs the command.
@@ -145,6 +150,9 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
             enabled: false,
             ..PushOut::default()
         })?;
+    }
+    if args.no_mirror_averaging {
+        predictor = predictor.with_mirror_averaging(false)?;
     }
     if let Fabric::Calibrated(calibration) = &fabric {
         calibration.check_for(&predictor).with_context(|| {

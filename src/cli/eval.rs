@@ -2,17 +2,20 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use clap::Args;
-use garmatnet::train::{EvalConfig, EvalInputs, evaluate};
+use garmatnet::train::{EvalConfig, EvalInputs, HeldOutInputs, evaluate, evaluate_held_out};
 
-/// Evaluate a model (and optionally the baseline) on its held-out test split.
+/// Evaluate a model (and optionally the baseline) on its held-out test split, or on
+/// held-out sets alone.
 #[derive(Debug, Args)]
 pub struct EvalArgs {
-    /// The dataset directory the model was trained on.
+    /// The dataset directory the model was trained on. Without it, only the `--held-out`
+    /// sets are evaluated (no split file needed: e.g. the shipped model, whose training data
+    /// is not shipped).
     #[arg(long)]
-    pub data: PathBuf,
-    /// The model file (its `.split.json` must lie next to it).
+    pub data: Option<PathBuf>,
+    /// The model file (with `--data`, its `.split.json` must lie next to it).
     #[arg(long)]
     pub model: PathBuf,
     /// A baseline directory from `garmatnet train-baseline`.
@@ -41,6 +44,10 @@ pub struct EvalArgs {
     /// (seconds a sample); default 0: skip.
     #[arg(long, default_value_t = 0)]
     pub newton_samples: usize,
+    /// Evaluate the raw predictions, without the mirror averaging the predictor applies by
+    /// default (`Predictor::with_mirror_averaging`).
+    #[arg(long)]
+    pub no_mirror_averaging: bool,
 }
 
 fn parse_held_out(value: &str) -> Result<(String, PathBuf), String> {
@@ -56,19 +63,23 @@ fn parse_held_out(value: &str) -> Result<(String, PathBuf), String> {
 
 /// Runs the command.
 pub fn run(args: &EvalArgs) -> Result<()> {
+    let config = EvalConfig {
+        device: args.device.clone(),
+        figures: !args.no_figures,
+        newton_samples: args.newton_samples,
+        mirror_averaging: !args.no_mirror_averaging,
+        ..EvalConfig::default()
+    };
+    let Some(data) = &args.data else {
+        return run_held_out(args, &config);
+    };
     let inputs = EvalInputs {
-        data_dir: args.data.clone(),
+        data_dir: data.clone(),
         model: args.model.clone(),
         baseline: args.baseline.clone(),
         compare_model: args.compare.clone(),
         out_dir: args.report.clone(),
         held_out: args.held_out.clone(),
-    };
-    let config = EvalConfig {
-        device: args.device.clone(),
-        figures: !args.no_figures,
-        newton_samples: args.newton_samples,
-        ..EvalConfig::default()
     };
     let report = evaluate(&inputs, &config)?;
     let g = &report.garmatnet;
@@ -94,7 +105,39 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     if let Some(q) = &report.physical_quality {
         physical_line("test set", q)?;
     }
-    for set in &report.held_out_sets {
+    held_out_lines(&report.held_out_sets)?;
+    outln!("report written to {}", args.report.display())?;
+    Ok(())
+}
+
+/// `eval` without `--data`: the held-out sets alone.
+fn run_held_out(args: &EvalArgs, config: &EvalConfig) -> Result<()> {
+    if args.baseline.is_some() || args.compare.is_some() {
+        bail!(
+            "--baseline and --compare are measured on the model's test split: give the dataset \
+             it was trained on with --data"
+        );
+    }
+    if args.held_out.is_empty() {
+        bail!(
+            "without --data, give at least one held-out set to evaluate on, e.g. \
+             --held-out everyday=ds/everyday (garmatnet simulate --poses everyday)"
+        );
+    }
+    let inputs = HeldOutInputs {
+        model: args.model.clone(),
+        out_dir: args.report.clone(),
+        held_out: args.held_out.clone(),
+    };
+    let report = evaluate_held_out(&inputs, config)?;
+    held_out_lines(&report.held_out_sets)?;
+    outln!("report written to {}", args.report.display())?;
+    Ok(())
+}
+
+/// The console lines of the held-out sets.
+fn held_out_lines(sets: &[garmatnet::train::HeldOutSet]) -> Result<()> {
+    for set in sets {
         outln!(
             "GarMatNet ({}, {} samples): fitting {:.2} mm, local {:.2} mm, whole {:.2} mm",
             set.name,
@@ -106,8 +149,18 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         if let Some(q) = &set.physical_quality {
             physical_line(&set.name, q)?;
         }
+        if let Some(m) = &set.symmetry {
+            outln!(
+                "  mirror asymmetry at {} symmetric samples (raw predictions [ground truth]): \
+                 mean {:.2} mm [{:.2}], max {:.2} mm [{:.2}]",
+                m.samples,
+                m.prediction_mean_mm,
+                m.truth_mean_mm,
+                m.prediction_max_mm,
+                m.truth_max_mm
+            )?;
+        }
     }
-    outln!("report written to {}", args.report.display())?;
     Ok(())
 }
 

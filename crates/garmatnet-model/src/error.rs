@@ -160,6 +160,34 @@ pub enum Error {
         joints: usize,
     },
 
+    /// Mirror averaging was asked of a predictor that knows no mirror twins
+    /// ([`crate::Predictor::with_mirror_averaging`] on one built with
+    /// [`crate::Predictor::new`]).
+    #[error(
+        "mirror averaging needs the garment template's mirror twins: build the predictor with \
+         Predictor::for_garment, or give them with Predictor::with_mirror_twins \
+         (Garment::mirror_twins)"
+    )]
+    NoMirrorTwins,
+
+    /// Mirror twins that are not a left-right pairing of the template's vertices: each
+    /// vertex needs one twin below the vertex count, and the twin's twin must be the vertex.
+    /// Take them from the template (`Garment::mirror_twins`).
+    #[error(
+        "mirror twin of vertex {vertex} is {twin}, which {problem}; give one twin per \
+         template vertex ({vertices}), each the twin of its own twin (Garment::mirror_twins)"
+    )]
+    InvalidMirrorTwins {
+        /// The first vertex whose twin is wrong.
+        vertex: usize,
+        /// The twin given for it.
+        twin: usize,
+        /// The template's vertex count.
+        vertices: usize,
+        /// What is wrong: past the vertices, or not paired back.
+        problem: &'static str,
+    },
+
     /// One pose of a sequence is unusable (NaN, infinity, a rotation too large); the
     /// sequence was refused before any prediction. Fix or drop that pose.
     #[error("pose {index} of the sequence: {source}")]

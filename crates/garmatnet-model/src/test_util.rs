@@ -143,6 +143,12 @@ pub(crate) fn test_faces() -> Vec<[u32; 3]> {
         .collect()
 }
 
+/// Mirror twins for the test template: vertices 2k and 2k + 1 are each other's twins (the
+/// anchors are not mirror images, but averaging needs only a pairing).
+pub(crate) fn test_twins() -> Vec<u32> {
+    (0..TEST_VERTICES as u32).map(|i| i ^ 1).collect()
+}
+
 /// A predictor over `model` with the test template's faces and anchors on SMPL's skeleton.
 pub(crate) fn test_predictor(model: GarMatNetModel, dev: &Device) -> Predictor {
     Predictor::new(

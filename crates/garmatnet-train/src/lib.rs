@@ -47,12 +47,14 @@ pub use data::stored_sequence::{StoredSequence, stored_sequence};
 pub use error::DIVERGENCE_LOSS;
 pub use error::{Error, Result};
 pub use evaluation::calibration_eval::{CalibrationEval, CalibrationRow, evaluate_calibration};
-pub use evaluation::evaluate::{EvalConfig, EvalInputs, evaluate};
+pub use evaluation::evaluate::{
+    EvalConfig, EvalInputs, HeldOutInputs, evaluate, evaluate_held_out,
+};
 pub use evaluation::plots::{ParetoPoint, Series, line_chart, pareto_chart};
 pub use evaluation::report::{
-    ErrorStats, FabricLookup, FrameComparison, HeldOutSet, MaterialErrors, MaterialSupport,
-    ModelSizes, NearestTraining, NewtonFromPrediction, PartErrors, PenetrationStats,
-    PhysicalQuality, Report, SampleErrors, TestParts, Timing,
+    ErrorStats, FabricLookup, FrameComparison, HeldOutReport, HeldOutSet, MaterialErrors,
+    MaterialSupport, MirrorSymmetry, ModelSizes, NearestTraining, NewtonFromPrediction, PartErrors,
+    PenetrationStats, PhysicalQuality, Report, SampleErrors, TestParts, Timing,
 };
 pub use harness::bench::{BenchConfig, BenchInputs, BenchReport, BenchRow, run_bench};
 pub use harness::stress::{FAR_FROM_BODY, MAX_STRESS_BATCH, StressReport, stress_predictor};

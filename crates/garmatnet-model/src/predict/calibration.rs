@@ -543,7 +543,18 @@ impl Predictor {
             .unzip();
         let f = omegas.len();
         let device = self.device();
-        let (pose_t, _) = self.input_tensors(poses.iter().map(|p| (p, &calibration.omega)));
+        let twins = self.averaging_twins();
+        // With mirror averaging, rows B..2B are the mirrored poses.
+        let mirrored: Vec<Pose> = match twins {
+            Some(_) => poses.iter().map(Pose::mirrored).collect(),
+            None => Vec::new(),
+        };
+        let rows: Vec<_> = poses
+            .iter()
+            .chain(&mirrored)
+            .map(|p| (p, &calibration.omega))
+            .collect();
+        let (pose_t, _) = self.input_tensors(rows.into_iter());
         let materials = matrix(
             omegas.iter().flatten().map(|&v| v as f32).collect(),
             f,
@@ -570,19 +581,26 @@ impl Predictor {
             .iter()
             .enumerate()
             .map(|(i, pose)| {
-                let d_fit = model
-                    .fitting_norm
-                    .denormalize(&fitting[i * n3..(i + 1) * n3]);
-                let d_loc = local
-                    .as_ref()
-                    .map(|l| model.local_norm.denormalize(&l[i * n3..(i + 1) * n3]));
-                let vertices = self.assemble(
-                    pose,
-                    &d_fit,
-                    d_loc.as_deref(),
-                    None,
-                    &format!("calibrated pose {i}"),
-                )?;
+                let garment = |row: usize, pose: &Pose| {
+                    let d_fit = model
+                        .fitting_norm
+                        .denormalize(&fitting[row * n3..(row + 1) * n3]);
+                    let d_loc = local
+                        .as_ref()
+                        .map(|l| model.local_norm.denormalize(&l[row * n3..(row + 1) * n3]));
+                    self.assemble(
+                        pose,
+                        &d_fit,
+                        d_loc.as_deref(),
+                        None,
+                        &format!("calibrated pose {i}"),
+                    )
+                };
+                let mut vertices = garment(i, pose)?;
+                if let Some(twins) = twins {
+                    let other = garment(poses.len() + i, &mirrored[i])?;
+                    self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
+                }
                 Ok(GarmentMesh {
                     vertices,
                     faces: self.shared_faces(),

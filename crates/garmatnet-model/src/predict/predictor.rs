@@ -153,6 +153,10 @@ pub struct Predictor {
     device: Device,
     push_out: PushOut,
     body: Option<CapsuleBody>,
+    /// Each vertex's mirror twin across the sagittal plane, when known.
+    twins: Option<Arc<[u32]>>,
+    /// Whether predictions are averaged with the mirror image of the mirrored pose's.
+    mirror_averaging: bool,
     id: u64,
     /// [`GarMatNetModel::weights_fingerprint`], computed on first use.
     fingerprint: OnceLock<String>,
@@ -213,6 +217,8 @@ impl Predictor {
             device: device.clone(),
             push_out: PushOut::default(),
             body: None,
+            twins: None,
+            mirror_averaging: false,
             id,
             fingerprint: OnceLock::new(),
         })
@@ -220,11 +226,12 @@ impl Predictor {
 
     /// A predictor for `garment` worn by `body`: the usual way to build one. Predictions from
     /// [`Predictor::predict`] are pushed out of the posed body (on by default; see
-    /// [`Predictor::with_push_out`]).
+    /// [`Predictor::with_push_out`]), and every prediction is mirror-averaged with the
+    /// garment's mirror twins (on by default; see [`Predictor::with_mirror_averaging`]).
     ///
     /// # Errors
     /// [`Error::TemplateMismatch`] if the model was trained on another template, and the
-    /// errors of [`Predictor::new`].
+    /// errors of [`Predictor::new`] and [`Predictor::with_mirror_twins`].
     pub fn for_garment(
         model: GarMatNetModel,
         garment: &Garment,
@@ -238,9 +245,103 @@ impl Predictor {
             &garmatnet_core::TemplateInfo::of(garment).hash,
             body.skeleton().clone(),
             device,
-        )?;
+        )?
+        .with_mirror_twins(garment.mirror_twins())?;
         predictor.body = Some(body);
         Ok(predictor)
+    }
+
+    /// Gives the predictor the template's mirror twins (`twins[i]` is the vertex at vertex
+    /// `i`'s mirror image across the sagittal plane x = 0, as [`Garment::mirror_twins`]
+    /// lists them) and turns mirror averaging on. [`Predictor::for_garment`] does this
+    /// itself; a predictor built with [`Predictor::new`] needs it for mirror averaging.
+    ///
+    /// # Errors
+    /// [`Error::Core`] unless there is one twin per vertex; [`Error::InvalidMirrorTwins`]
+    /// for a twin past the vertices or one whose own twin is another vertex.
+    pub fn with_mirror_twins(mut self, twins: &[u32]) -> Result<Self> {
+        let n = self.vertex_count();
+        if twins.len() != n {
+            return Err(garmatnet_core::Error::Mismatch {
+                what: "mirror twins (one per template vertex)".into(),
+                expected: format!("{n} twins"),
+                got: format!("{} twins", twins.len()),
+            }
+            .into());
+        }
+        // A twin past the vertices is named before any pairing it breaks.
+        let past = twins.iter().position(|&t| t as usize >= n);
+        let unpaired = || (0..n).find(|&v| twins[twins[v] as usize] as usize != v);
+        let wrong = past
+            .map(|v| (v, "is past the template's vertices"))
+            .or_else(|| unpaired().map(|v| (v, "has another vertex as its twin")));
+        if let Some((vertex, problem)) = wrong {
+            return Err(Error::InvalidMirrorTwins {
+                vertex,
+                twin: twins[vertex] as usize,
+                vertices: n,
+                problem,
+            });
+        }
+        self.twins = Some(twins.into());
+        self.with_mirror_averaging(true)
+    }
+
+    /// Turns mirror averaging on or off. With it on, every prediction at a pose θ is the
+    /// mean of the nets' garment at θ and the mirror image (x → −x, each vertex taking its
+    /// twin's displacement) of their garment at the mirrored pose ([`Pose::mirrored`]),
+    /// each displacement measured from its own posed body anchor; push-out comes after the
+    /// mean. A left-right symmetric pose then gets a left-right symmetric garment (to the
+    /// body's own asymmetry), and the mirrored pose gets exactly the mirror image, at the
+    /// cost of running the nets on twice the poses. [`Predictor::for_garment`] turns it on;
+    /// its effect on accuracy is measured in book/src/experiments/everyday-symmetry.md. The
+    /// result counts as a new predictor, as [`Predictor::with_push_out`]'s does.
+    ///
+    /// # Errors
+    /// [`Error::NoMirrorTwins`] to turn it on for a predictor without mirror twins
+    /// ([`Predictor::with_mirror_twins`]).
+    pub fn with_mirror_averaging(mut self, on: bool) -> Result<Self> {
+        if on && self.twins.is_none() {
+            return Err(Error::NoMirrorTwins);
+        }
+        self.mirror_averaging = on;
+        self.id = NEXT_PREDICTOR_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(self)
+    }
+
+    /// Whether predictions are mirror-averaged ([`Predictor::with_mirror_averaging`]).
+    #[must_use]
+    pub fn mirror_averaging(&self) -> bool {
+        self.mirror_averaging
+    }
+
+    /// The mirror twins when mirror averaging is on.
+    pub(crate) fn averaging_twins(&self) -> Option<&[u32]> {
+        self.twins.as_deref().filter(|_| self.mirror_averaging)
+    }
+
+    /// Folds the nets' garment at the mirrored pose into `own`, their garment at `pose`
+    /// (of every vertex, or of the subset `vertices`): each vertex ends at its posed anchor
+    /// plus the mean of its own displacement and the mirror image of its twin's displacement
+    /// at the mirrored pose. `mirrored(k, twin)` gives that twin's position in the mirrored
+    /// garment for `own[k]`.
+    pub(crate) fn fold_mirrored(
+        &self,
+        twins: &[u32],
+        pose: &Pose,
+        own: &mut [Vec3],
+        vertices: Option<&[usize]>,
+        mirrored: impl Fn(usize, usize) -> Vec3,
+    ) {
+        let transforms = self.skeleton.skinning_transforms(pose);
+        let mirrored_transforms = self.skeleton.skinning_transforms(&pose.mirrored());
+        for (k, p) in own.iter_mut().enumerate() {
+            let v = vertices.map_or(k, |s| s[k]);
+            let twin = twins[v] as usize;
+            let anchor = self.anchors[v].posed_point(&transforms);
+            let d = mirrored(k, twin) - self.anchors[twin].posed_point(&mirrored_transforms);
+            *p = anchor + 0.5 * ((*p - anchor) + Vec3::new(-d.x, d.y, d.z));
+        }
     }
 
     /// Predicts the garment for `pose` in `material`, pushed out of the posed body when the
@@ -389,8 +490,20 @@ impl Predictor {
         for (pose, material) in items {
             validate_inputs(pose, material)?;
         }
-        let (pose_t, material_t) = self.input_tensors(items.iter().map(|(p, m)| (p, m)));
+        let twins = self.averaging_twins();
+        // With mirror averaging, rows B..2B are the mirrored poses.
+        let mirrored: Vec<Pose> = match twins {
+            Some(_) => items.iter().map(|(p, _)| p.mirrored()).collect(),
+            None => Vec::new(),
+        };
+        let rows: Vec<(&Pose, &[Real; MATERIAL_DIM])> = items
+            .iter()
+            .map(|(p, m)| (p, m))
+            .chain(mirrored.iter().zip(items.iter().map(|(_, m)| m)))
+            .collect();
+        let (pose_t, material_t) = self.input_tensors(rows.into_iter());
         let n3 = 3 * self.vertex_count();
+        let b_all = items.len();
         let fitting = to_f32(
             self.model
                 .fitting
@@ -404,20 +517,29 @@ impl Predictor {
             .iter()
             .enumerate()
             .map(|(b, (pose, _))| {
-                let d_fit = self
-                    .model
-                    .fitting_norm
-                    .denormalize(&fitting[b * n3..(b + 1) * n3]);
-                let d_loc = local
-                    .as_ref()
-                    .map(|l| self.model.local_norm.denormalize(&l[b * n3..(b + 1) * n3]));
-                let vertices = self.assemble(
-                    pose,
-                    &d_fit,
-                    d_loc.as_deref(),
-                    None,
-                    &format!("batch item {b}"),
-                )?;
+                let garment = |row: usize, pose: &Pose| {
+                    let d_fit = self
+                        .model
+                        .fitting_norm
+                        .denormalize(&fitting[row * n3..(row + 1) * n3]);
+                    let d_loc = local.as_ref().map(|l| {
+                        self.model
+                            .local_norm
+                            .denormalize(&l[row * n3..(row + 1) * n3])
+                    });
+                    self.assemble(
+                        pose,
+                        &d_fit,
+                        d_loc.as_deref(),
+                        None,
+                        &format!("batch item {b}"),
+                    )
+                };
+                let mut vertices = garment(b, pose)?;
+                if let Some(twins) = twins {
+                    let other = garment(b_all + b, &mirrored[b])?;
+                    self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
+                }
                 Ok(GarmentMesh {
                     vertices,
                     faces: Arc::clone(&self.faces),
@@ -682,9 +804,125 @@ pub(crate) fn validate_material(material: &[Real; MATERIAL_DIM]) -> garmatnet_co
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{cpu, small_model, test_anchors, test_faces, test_predictor};
+    use crate::test_util::{
+        cpu, small_model, test_anchors, test_faces, test_predictor, test_twins,
+    };
+    use crate::{GarMatNetConfig, GarMatNetModel};
     use approx::assert_relative_eq;
-    use garmatnet_core::{JointLimits, Sphere, SplitMix64};
+    use garmatnet_core::{JointLimits, Resolution, Sphere, SplitMix64, TemplateInfo};
+
+    /// Untrained nets (random weights: a garment far from symmetric) for the coarse fitted
+    /// T-shirt, whose template is mirror-symmetric, with mirror averaging as built.
+    fn tshirt_predictor(frame: DisplacementFrame) -> (Predictor, Garment) {
+        let dev = cpu();
+        let body = CapsuleBody::smpl_neutral();
+        let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
+        let mut config = GarMatNetConfig::new(garment.vertex_count(), 8, 4, 8);
+        config.displacement_frame = frame;
+        let model = GarMatNetModel::untrained(&config, TemplateInfo::of(&garment), &dev);
+        let p = Predictor::for_garment(model, &garment, body, &dev).unwrap();
+        (p, garment)
+    }
+
+    /// Each vertex's displacement (metres) from its posed body anchor, without push-out.
+    fn displacements(p: &Predictor, pose: &Pose, omega: &[Real; 6]) -> Vec<Vec3> {
+        let mesh = p.predict_normalized(pose, omega, Detail::Full).unwrap();
+        p.body_points(pose)
+            .iter()
+            .zip(&mesh.vertices)
+            .map(|(a, v)| v - a)
+            .collect()
+    }
+
+    /// Mean over vertices of |d_i - mirror(e_twin(i))| (metres).
+    fn mirror_gap(d: &[Vec3], e: &[Vec3], twins: &[u32]) -> Real {
+        let total: Real = d
+            .iter()
+            .zip(twins)
+            .map(|(di, &t)| {
+                let et = e[t as usize];
+                (di - Vec3::new(-et.x, et.y, et.z)).norm()
+            })
+            .sum();
+        total / d.len() as Real
+    }
+
+    #[test]
+    fn mirror_averaging_gives_the_mirrored_pose_the_mirror_image() {
+        let omega = [0.3, 0.7, 0.2, 0.5, 0.9, 0.4];
+        let theta = JointLimits::default().sample(&mut SplitMix64::new(3), 1.0);
+        let symmetric = Pose::a_pose();
+        assert_eq!(symmetric.mirrored(), symmetric);
+        for frame in [DisplacementFrame::World, DisplacementFrame::Canonical] {
+            let (on, garment) = tshirt_predictor(frame);
+            assert!(on.mirror_averaging(), "for_garment turns it on");
+            let twins = garment.mirror_twins();
+            let d = displacements(&on, &theta, &omega);
+            let scale = d.iter().map(Vec3::norm).sum::<Real>() / d.len() as Real;
+            assert!(scale > 1e-3, "{scale}");
+            let gap = mirror_gap(&d, &displacements(&on, &theta.mirrored(), &omega), twins);
+            assert!(gap < 1e-5 * scale, "{frame:?}: {gap} against {scale}");
+            let sym = displacements(&on, &symmetric, &omega);
+            assert!(mirror_gap(&sym, &sym, twins) < 1e-5 * scale, "{frame:?}");
+
+            // Without it the random nets are far from symmetric, so the checks above can fail.
+            let off = on.with_mirror_averaging(false).unwrap();
+            assert!(!off.mirror_averaging());
+            let raw = displacements(&off, &symmetric, &omega);
+            assert!(mirror_gap(&raw, &raw, twins) > 0.05 * scale, "{frame:?}");
+            // The average is the mean of the raw garment and its mirrored pose's mirror image.
+            for (i, &t) in twins.iter().enumerate().step_by(97) {
+                let r = raw[t as usize];
+                let expected = 0.5 * (raw[i] + Vec3::new(-r.x, r.y, r.z));
+                assert_relative_eq!(sym[i], expected, epsilon = 1e-5 * scale);
+            }
+        }
+    }
+
+    #[test]
+    fn mirror_averaging_needs_twins_that_pair_the_vertices() {
+        let p = || predictor(1, DisplacementFrame::World);
+        assert!(!p().mirror_averaging(), "Predictor::new knows no twins");
+        assert!(matches!(
+            p().with_mirror_averaging(true),
+            Err(Error::NoMirrorTwins)
+        ));
+        assert!(matches!(
+            p().with_mirror_twins(&[0, 1]),
+            Err(Error::Core(garmatnet_core::Error::Mismatch { .. }))
+        ));
+        let mut unpaired = test_twins();
+        unpaired[0] = 2;
+        match p().with_mirror_twins(&unpaired) {
+            Err(Error::InvalidMirrorTwins {
+                vertex: 0,
+                twin: 2,
+                problem,
+                ..
+            }) => assert!(problem.contains("another vertex"), "{problem}"),
+            other => panic!("{other:?}"),
+        }
+        let mut past = test_twins();
+        past[5] = 1000;
+        assert!(matches!(
+            p().with_mirror_twins(&past),
+            Err(Error::InvalidMirrorTwins {
+                vertex: 5,
+                twin: 1000,
+                ..
+            })
+        ));
+        let on = p().with_mirror_twins(&test_twins()).unwrap();
+        assert!(on.mirror_averaging());
+        let (id, omega, pose) = (on.id(), [0.5; 6], Pose::a_pose());
+        let averaged = on.predict_normalized(&pose, &omega, Detail::Full).unwrap();
+        let off = on.with_mirror_averaging(false).unwrap();
+        assert_ne!(off.id(), id, "a scene must not keep the averaged outputs");
+        assert_ne!(
+            off.predict_normalized(&pose, &omega, Detail::Full).unwrap(),
+            averaged
+        );
+    }
 
     #[test]
     fn detail_parses_its_display_and_rejects_others() {

@@ -73,9 +73,18 @@ pub struct SceneUpdate {
 struct Slot {
     character: Character,
     dirty: bool,
-    /// Sliced output layers (fitting, local) for the character's subset.
-    heads: Option<(OutputHead, OutputHead)>,
+    /// Sliced output layers for the character's subset.
+    heads: Option<SubsetHeads>,
     output: Option<CharacterOutput>,
+}
+
+/// The output layers (fitting, local) sliced to a character's vertex subset.
+#[derive(Debug)]
+struct SubsetHeads {
+    /// For the subset itself.
+    own: (OutputHead, OutputHead),
+    /// With mirror averaging: for the subset's mirror twins, and those twins' ids.
+    twins: Option<((OutputHead, OutputHead), Vec<usize>)>,
 }
 
 /// A set of characters sharing one garment model.
@@ -248,23 +257,54 @@ impl Scene {
     ) -> Result<usize> {
         let model = predictor.model();
         let device = predictor.device().clone();
+        let twins = predictor.averaging_twins();
+        let heads_of = |v: &[usize]| -> Result<(OutputHead, OutputHead)> {
+            Ok((
+                model.fitting.output_head(Some(v))?,
+                model.local.output_head(Some(v))?,
+            ))
+        };
         for &id in ids {
             let slot = self.slots.get_mut(&id).ok_or(Error::UnknownCharacter(id))?;
             if slot.heads.is_none()
                 && let Some(v) = &slot.character.vertices
             {
-                let fit = model.fitting.output_head(Some(v))?;
-                let loc = model.local.output_head(Some(v))?;
-                slot.heads = Some((fit, loc));
+                // A vertex past the template is refused by `output_head` before its twin
+                // is looked up.
+                let own = heads_of(v)?;
+                let twins = match twins {
+                    Some(t) => {
+                        let ids: Vec<usize> = v.iter().map(|&i| t[i] as usize).collect();
+                        Some((heads_of(&ids)?, ids))
+                    }
+                    None => None,
+                };
+                slot.heads = Some(SubsetHeads { own, twins });
             }
         }
         let hits = self.fill_material_cache(predictor, ids)?;
         let characters: Vec<&Character> = ids.iter().map(|id| &self.slots[id].character).collect();
-        let (pose_t, _) =
-            predictor.input_tensors(characters.iter().map(|c| (&c.pose, &c.material)));
+        let b = characters.len();
+        // With mirror averaging, rows b..2b are the mirrored poses.
+        let mirrored: Vec<Pose> = match twins {
+            Some(_) => characters.iter().map(|c| c.pose.mirrored()).collect(),
+            None => Vec::new(),
+        };
+        let rows: Vec<_> = characters
+            .iter()
+            .map(|c| (&c.pose, &c.material))
+            .chain(mirrored.iter().zip(characters.iter().map(|c| &c.material)))
+            .collect();
+        let (pose_t, _) = predictor.input_tensors(rows.into_iter());
         let keys: Vec<_> = characters
             .iter()
             .map(|c| material_key(&c.material))
+            .chain(
+                mirrored
+                    .iter()
+                    .zip(&characters)
+                    .map(|(_, c)| material_key(&c.material)),
+            )
             .collect();
 
         let mut nets: Vec<(&GarMatNet, &OutputNormalizer, bool)> =
@@ -272,7 +312,8 @@ impl Scene {
         if detail == Detail::Full {
             nets.push((&model.local, &model.local_norm, false));
         }
-        // Per net, per character: denormalised displacements (subset order).
+        // Per net, per row (the characters, then their mirrored poses): denormalised
+        // displacements (subset order; a mirrored row's for the subset's twins).
         let mut displacements: Vec<Vec<Vec<Real>>> = Vec::new();
         for (net, norm, is_fitting) in nets {
             let width = net.config().material_hidden;
@@ -283,40 +324,68 @@ impl Scene {
                     if is_fitting { f.clone() } else { l.clone() }
                 })
                 .collect();
-            let material_features = matrix(feats, ids.len(), width, &device);
+            let material_features = matrix(feats, keys.len(), width, &device);
             let hidden = net.hidden(net.pose_features(pose_t.clone()), material_features);
-            let mut per_character = vec![Vec::new(); ids.len()];
-            let full_rows: Vec<usize> = (0..ids.len())
-                .filter(|&r| characters[r].vertices.is_none())
+            let mut per_row = vec![Vec::new(); keys.len()];
+            let full_rows: Vec<usize> = (0..keys.len())
+                .filter(|&r| characters[r % b].vertices.is_none())
                 .collect();
             if !full_rows.is_empty() {
                 let out = to_f32(net.forward_all(select_rows(&hidden, &full_rows, &device)));
                 let n3 = 3 * net.vertex_count();
                 for (k, &r) in full_rows.iter().enumerate() {
-                    per_character[r] = norm.denormalize(&out[k * n3..(k + 1) * n3]);
+                    per_row[r] = norm.denormalize(&out[k * n3..(k + 1) * n3]);
                 }
             }
-            for r in (0..ids.len()).filter(|&r| characters[r].vertices.is_some()) {
-                let slot = &self.slots[&ids[r]];
-                let (fit_head, loc_head) = slot.heads.as_ref().expect("heads were built above");
+            for r in (0..keys.len()).filter(|&r| characters[r % b].vertices.is_some()) {
+                let heads = self.slots[&ids[r % b]]
+                    .heads
+                    .as_ref()
+                    .expect("heads were built above");
+                let (fit_head, loc_head) = if r < b {
+                    &heads.own
+                } else {
+                    &heads.twins.as_ref().expect("twin heads were built above").0
+                };
                 let head = if is_fitting { fit_head } else { loc_head };
                 let out = to_f32(net.forward_head(select_rows(&hidden, &[r], &device), head));
-                per_character[r] = norm.denormalize_vertices(&out, head.vertices().unwrap_or(&[]));
+                per_row[r] = norm.denormalize_vertices(&out, head.vertices().unwrap_or(&[]));
             }
-            displacements.push(per_character);
+            displacements.push(per_row);
         }
 
         let mut outputs = Vec::with_capacity(ids.len());
         for (r, c) in characters.iter().enumerate() {
             let local = displacements.get(1).map(|d| d[r].as_slice());
             let subset = c.vertices.as_deref();
-            let mut vertices = predictor.assemble(
-                &c.pose,
-                &displacements[0][r],
-                local,
-                subset,
-                &format!("character {}", ids[r]),
-            )?;
+            let what = format!("character {}", ids[r]);
+            let mut vertices =
+                predictor.assemble(&c.pose, &displacements[0][r], local, subset, &what)?;
+            if let Some(twins) = twins {
+                let twin_ids = self.slots[&ids[r]]
+                    .heads
+                    .as_ref()
+                    .and_then(|h| h.twins.as_ref())
+                    .map(|(_, ids)| ids.as_slice());
+                let other = predictor.assemble(
+                    &mirrored[r],
+                    &displacements[0][b + r],
+                    displacements.get(1).map(|d| d[b + r].as_slice()),
+                    twin_ids,
+                    &what,
+                )?;
+                match subset {
+                    // `other` holds the twins of the subset, in the subset's order.
+                    Some(_) => {
+                        predictor
+                            .fold_mirrored(twins, &c.pose, &mut vertices, subset, |k, _| other[k])
+                    }
+                    None => {
+                        predictor
+                            .fold_mirrored(twins, &c.pose, &mut vertices, None, |_, t| other[t]);
+                    }
+                }
+            }
             // Each vertex is pushed out on its own, so a subset gets what the full
             // prediction gives those vertices.
             predictor.push_out_vertices(&mut vertices, &c.pose);
@@ -397,7 +466,7 @@ fn select_rows(t: &Tensor<2>, rows: &[usize], device: &Device) -> Tensor<2> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{cpu, small_model, test_predictor};
+    use crate::test_util::{cpu, small_model, test_predictor, test_twins};
     use approx::assert_relative_eq;
     use garmatnet_core::{JointLimits, SplitMix64};
 
@@ -416,8 +485,19 @@ mod tests {
 
     #[test]
     fn every_shortcut_matches_the_full_prediction() {
-        for rank in [None, Some(6)] {
-            let p = predictor(rank);
+        // With mirror averaging too: a subset then runs its twins' rows at the mirrored pose.
+        for (rank, mirror) in [
+            (None, false),
+            (Some(6), false),
+            (None, true),
+            (Some(6), true),
+        ] {
+            let p = if mirror {
+                predictor(rank).with_mirror_twins(&test_twins()).unwrap()
+            } else {
+                predictor(rank)
+            };
+            assert_eq!(p.mirror_averaging(), mirror);
             let mut rng = SplitMix64::new(5);
             let limits = JointLimits::default();
             let shared_material = [0.2, 0.4, 0.6, 0.8, 0.1, 0.9];

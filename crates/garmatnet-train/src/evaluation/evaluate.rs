@@ -18,12 +18,12 @@ use crate::error::Result;
 use crate::evaluation::fabric_reference::{fabric_lookup, material_support};
 use crate::evaluation::physical_quality::QualityAccumulator;
 use crate::evaluation::prediction_errors::{
-    VertexErrors, error_stats, load_model, load_with_same_test, predict_baseline,
-    predict_garmatnet, vertex_errors,
+    Mirror, VertexErrors, error_stats, load_model, load_with_same_test, mirror_of,
+    predict_baseline, predict_garmatnet, vertex_errors,
 };
 use crate::evaluation::report::{
-    ErrorStats, FrameComparison, HeldOutSet, MaterialErrors, ModelSizes, NearestTraining,
-    PenetrationStats, Report, SampleErrors, TestParts, Timing,
+    ErrorStats, FrameComparison, HeldOutReport, HeldOutSet, MaterialErrors, MirrorSymmetry,
+    ModelSizes, NearestTraining, PenetrationStats, Report, SampleErrors, TestParts, Timing,
 };
 use crate::training::baseline::Baseline;
 
@@ -46,6 +46,10 @@ pub struct EvalConfig {
     /// row of Newton iterations. 0 (default) skips it; each costs a solve (seconds).
     #[serde(default)]
     pub newton_samples: usize,
+    /// Mirror-average every prediction, GarMatNet's and the baseline's, as
+    /// [`Predictor::with_mirror_averaging`] does (on by default, as in the predictor; the
+    /// report records it).
+    pub mirror_averaging: bool,
 }
 
 impl Default for EvalConfig {
@@ -57,6 +61,7 @@ impl Default for EvalConfig {
             timing_batch: 64,
             figures: true,
             newton_samples: 0,
+            mirror_averaging: true,
         }
     }
 }
@@ -106,6 +111,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let _lock = crate::data::loader::create_locked_dir(&inputs.out_dir, "report")?;
     let spec = data.spec();
     let comparison = split.comparison_test();
+    let mirror = mirror_of(&data, config.mirror_averaging);
 
     // GarMatNet on the whole test set, keeping per-vertex errors for the heat maps.
     let mut all_errors = Vec::with_capacity(split.test.len());
@@ -113,7 +119,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let mut quality = QualityAccumulator::new(data.garment(), spec)?;
     let polish_every = polish_stride(split.test.len(), config.newton_samples);
     for (chunk, keys) in split.test.chunks(64).enumerate() {
-        let preds = predict_garmatnet(&model, &data, keys, &device)?;
+        let preds = predict_garmatnet(&model, &data, keys, &device, mirror)?;
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = data.truth(key)?;
             let errors = vertex_errors(&truth, &pred);
@@ -151,7 +157,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         development: {
             let mut errors = Vec::with_capacity(split.dev.len());
             for keys in split.dev.chunks(64) {
-                let preds = predict_garmatnet(&model, &data, keys, &device)?;
+                let preds = predict_garmatnet(&model, &data, keys, &device, mirror)?;
                 for (&key, pred) in keys.iter().zip(preds) {
                     errors.push(vertex_errors(&data.truth(key)?, &pred));
                 }
@@ -196,7 +202,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
                 .filter(|k| k.material == m.material)
                 .collect();
             for chunk in keys.chunks(64) {
-                let preds = predict_baseline(m, &data, chunk, &device)?;
+                let preds = predict_baseline(m, &data, chunk, &device, mirror)?;
                 for (&key, pred) in chunk.iter().zip(preds) {
                     let truth = data.truth(key)?;
                     baseline_errors.push((key, vertex_errors(&truth, &pred)));
@@ -229,7 +235,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             path,
             &split,
             &data,
-            &device,
+            (&device, mirror),
             &model,
             garmatnet_all_test.whole_mm,
         )?),
@@ -250,7 +256,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             &data,
             &all_errors,
             (&baseline_errors, baseline.as_ref()),
-            &model,
+            (&model, mirror),
             &device,
         )?);
     }
@@ -262,7 +268,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
     let held_out_sets = inputs
         .held_out
         .iter()
-        .map(|(name, dir)| held_out_set(name, dir, &model, &data, &split, &device, config))
+        .map(|(name, dir)| held_out_set((name, dir), &model, &training_fabrics, &device, config))
         .collect::<Result<Vec<_>>>()?;
     let timing = time_inference(&model, &data, &split.test, &device, config)?;
     let report = Report {
@@ -289,26 +295,75 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         sizes,
         frame_comparison,
         held_out_sets,
+        mirror_averaging: config.mirror_averaging,
         files,
     };
     report.write(&inputs.out_dir)?;
     Ok(report)
 }
 
+/// What [`evaluate_held_out`] evaluates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOutInputs {
+    /// The GarMatNet model file (no split file needed).
+    pub model: PathBuf,
+    /// Where `report.json` and `report.md` go (created if needed).
+    pub out_dir: PathBuf,
+    /// Named held-out datasets of the model's template, evaluated whole, as in
+    /// [`EvalInputs::held_out`]; at least one.
+    pub held_out: Vec<(String, PathBuf)>,
+}
+
+/// Evaluates `inputs.model` on held-out datasets alone, without the dataset it was trained
+/// on: for a model whose training data is not at hand, such as the shipped one. Each set is
+/// measured as [`evaluate`] measures its held-out sets; a fabric counts as seen when the
+/// model file records a training fabric of the same name and ω (none, in files written
+/// before they were recorded). Writes the report into `inputs.out_dir`.
+///
+/// # Errors
+/// [`Error::InvalidConfig`](crate::Error::InvalidConfig) without a held-out set; model errors
+/// for a missing or corrupt model, or a set of another template; dataset errors naming the
+/// sample.
+pub fn evaluate_held_out(inputs: &HeldOutInputs, config: &EvalConfig) -> Result<HeldOutReport> {
+    if inputs.held_out.is_empty() {
+        return Err(crate::Error::InvalidConfig(
+            "evaluating without the training data needs at least one held-out set \
+             (NAME=DIR, e.g. everyday=ds/everyday)"
+                .into(),
+        ));
+    }
+    let device = select_device(&config.device)?;
+    let model = GarMatNetModel::load(&inputs.model, &device)?;
+    let training = model.meta.provenance.training_fabrics.clone();
+    let _lock = crate::data::loader::create_locked_dir(&inputs.out_dir, "report")?;
+    let held_out_sets = inputs
+        .held_out
+        .iter()
+        .map(|(name, dir)| held_out_set((name, dir), &model, &training, &device, config))
+        .collect::<Result<Vec<_>>>()?;
+    let report = HeldOutReport {
+        model: inputs.model.display().to_string(),
+        mirror_averaging: config.mirror_averaging,
+        training_fabrics: training.iter().map(|f| f.name.clone()).collect(),
+        held_out_sets,
+    };
+    report.write(&inputs.out_dir)?;
+    Ok(report)
+}
+
 /// The model's error on every sample of the held-out dataset in `dir`, split by whether the
-/// fabric is one the model trained on (same name and ω).
+/// fabric is one of the model's `training` fabrics (same name and ω).
 fn held_out_set(
-    name: &str,
-    dir: &Path,
+    (name, dir): (&str, &Path),
     model: &GarMatNetModel,
-    data: &TrainingDataset,
-    split: &Split,
+    training: &[TrainingFabric],
     device: &Device,
     config: &EvalConfig,
 ) -> Result<HeldOutSet> {
     let set = TrainingDataset::open(dir, true)?;
     model.ensure_template(set.template_hash(), set.vertex_count())?;
-    let training = split.training_fabrics(data.spec());
+    let mirror = mirror_of(&set, config.mirror_averaging);
+    let mut symmetry = SymmetryAccumulator::default();
     let seen: Vec<bool> = set
         .spec()
         .materials
@@ -326,12 +381,17 @@ fn held_out_set(
     let converged: Vec<bool> = set.records().iter().map(|r| r.stats.converged).collect();
     let polish_every = polish_stride(keys.len(), config.newton_samples);
     for (chunk, keys) in keys.chunks(64).enumerate() {
-        let preds = predict_garmatnet(model, &set, keys, device)?;
+        let preds = predict_garmatnet(model, &set, keys, device, mirror)?;
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = set.truth(key)?;
             errors.push((key.material, vertex_errors(&truth, &pred)));
-            let posed = set.body().pose(&set.spec().poses[key.pose]);
+            let pose = &set.spec().poses[key.pose];
+            let posed = set.body().pose(pose);
             let mut garment = assemble(&truth.body_points, &pred);
+            if pose.mirrored() == *pose {
+                let twins = set.garment().mirror_twins();
+                symmetry.add(twins, &garment, &truth.simulated);
+            }
             quality.add(key.material, &posed, &garment, &truth.simulated)?;
             if polish_every.is_some_and(|every| (chunk * 64 + i) % every == 0) {
                 let _ = push_out(&mut garment, &posed, config.push_out_epsilon);
@@ -356,7 +416,7 @@ fn held_out_set(
             material_errors(
                 &set.spec().materials[m],
                 !seen[m],
-                &training,
+                training,
                 run.iter().map(|(_, e)| e),
             )
         })
@@ -381,7 +441,52 @@ fn held_out_set(
         unseen_fabrics: part(false),
         physical_quality: quality.finish(),
         per_material,
+        symmetry: symmetry.finish(),
     })
+}
+
+/// Sums [`MirrorSymmetry`] over the samples at symmetric poses.
+#[derive(Default)]
+struct SymmetryAccumulator {
+    samples: usize,
+    prediction: (f64, f64),
+    truth: (f64, f64),
+}
+
+impl SymmetryAccumulator {
+    fn add(&mut self, twins: &[u32], prediction: &[Vec3], truth: &[Vec3]) {
+        let asymmetry_mm = |x: &[Vec3]| {
+            let total: f64 = x
+                .iter()
+                .zip(twins)
+                .map(|(p, &t)| {
+                    let q = x[t as usize];
+                    (p - Vec3::new(-q.x, q.y, q.z)).norm()
+                })
+                .sum();
+            1e3 * total / x.len().max(1) as f64
+        };
+        let add = |(sum, max): &mut (f64, f64), v: f64| {
+            *sum += v;
+            *max = max.max(v);
+        };
+        add(&mut self.prediction, asymmetry_mm(prediction));
+        add(&mut self.truth, asymmetry_mm(truth));
+        self.samples += 1;
+    }
+
+    fn finish(self) -> Option<MirrorSymmetry> {
+        (self.samples > 0).then(|| {
+            let n = self.samples as f64;
+            MirrorSymmetry {
+                samples: self.samples,
+                prediction_mean_mm: self.prediction.0 / n,
+                prediction_max_mm: self.prediction.1,
+                truth_mean_mm: self.truth.0 / n,
+                truth_max_mm: self.truth.1,
+            }
+        })
+    }
 }
 
 /// One fabric's error over its samples; a fabric the model never trained on (`unseen`) names
@@ -508,7 +613,7 @@ fn compare_frames(
     path: &Path,
     split: &Split,
     data: &TrainingDataset,
-    device: &Device,
+    (device, mirror): (&Device, Mirror<'_>),
     primary: &GarMatNetModel,
     primary_whole_mm: f64,
 ) -> Result<FrameComparison> {
@@ -517,7 +622,7 @@ fn compare_frames(
     for keys in split.test.chunks(64) {
         for (&key, pred) in keys
             .iter()
-            .zip(predict_garmatnet(&other, data, keys, device)?)
+            .zip(predict_garmatnet(&other, data, keys, device, mirror)?)
         {
             errors.push(vertex_errors(&data.truth(key)?, &pred));
         }
@@ -558,6 +663,12 @@ fn time_inference(
         data.skeleton().clone(),
         device,
     )?;
+    // Timed as the predictor runs by default: with mirror averaging, twice the poses.
+    let predictor = if config.mirror_averaging {
+        predictor.with_mirror_twins(data.garment().mirror_twins())?
+    } else {
+        predictor
+    };
     let items: Vec<_> = test
         .iter()
         .take(config.timing_batch.max(1))
@@ -1123,7 +1234,7 @@ mod tests {
     }
 
     #[test]
-    fn evaluating_without_the_split_file_is_an_error() {
+    fn without_the_split_file_only_held_out_sets_are_evaluated() {
         let _serial = training_lock();
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
@@ -1133,12 +1244,65 @@ mod tests {
         std::fs::remove_file(crate::data::files::split_path(&model)).unwrap();
         let inputs = EvalInputs {
             held_out: Vec::new(),
-            data_dir: data,
-            model,
+            data_dir: data.clone(),
+            model: model.clone(),
             baseline: None,
             compare_model: None,
             out_dir: dir.path().join("eval"),
         };
         assert!(evaluate(&inputs, &EvalConfig::default()).is_err());
+
+        // The held-out sets alone need no split (the training set read whole: the code path).
+        let held_out = |out: &str, held_out: Vec<(String, PathBuf)>| HeldOutInputs {
+            model: model.clone(),
+            out_dir: dir.path().join(out),
+            held_out,
+        };
+        let set = vec![("whole".to_owned(), data.clone())];
+        let on = evaluate_held_out(&held_out("on", set.clone()), &EvalConfig::default()).unwrap();
+        assert!(on.mirror_averaging);
+        assert_eq!(on.training_fabrics.len(), 4, "6 fabrics less the 2 targets");
+        let whole = &on.held_out_sets[0];
+        assert_eq!(whole.all.samples, 6 * 20);
+        assert_eq!(whole.unseen_fabrics.as_ref().unwrap().samples, 2 * 20);
+        assert!(whole.all.whole_mm.is_finite() && whole.all.whole_mm > 0.0);
+        // The synthetic poses are random: none is its own mirror image.
+        assert!(whole.symmetry.is_none());
+        let md = std::fs::read_to_string(dir.path().join("on/report.md")).unwrap();
+        assert!(
+            md.contains("mirror averaging on") && md.contains("GarMatNet, whole"),
+            "{md}"
+        );
+        let off_config = EvalConfig {
+            mirror_averaging: false,
+            ..EvalConfig::default()
+        };
+        let off = evaluate_held_out(&held_out("off", set), &off_config).unwrap();
+        assert!(!off.mirror_averaging);
+        assert_ne!(off.held_out_sets[0].all, whole.all);
+        let err = evaluate_held_out(&held_out("none", Vec::new()), &EvalConfig::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("at least one held-out set"), "{err}");
+    }
+
+    #[test]
+    fn mirror_asymmetry_is_zero_for_a_mirror_image_and_twice_a_sideways_shift() {
+        // Two vertices, each other's twin, mirror images of each other.
+        let twins = [1u32, 0];
+        let symmetric = [Vec3::new(-0.1, 1.0, 0.05), Vec3::new(0.1, 1.0, 0.05)];
+        let shifted: Vec<Vec3> = symmetric
+            .iter()
+            .map(|p| p + Vec3::new(0.003, 0.0, 0.0))
+            .collect();
+        let mut acc = SymmetryAccumulator::default();
+        assert!(SymmetryAccumulator::default().finish().is_none());
+        acc.add(&twins, &shifted, &symmetric);
+        acc.add(&twins, &symmetric, &symmetric);
+        let m = acc.finish().unwrap();
+        assert_eq!(m.samples, 2);
+        assert!((m.prediction_max_mm - 6.0).abs() < 1e-9, "{m:?}");
+        assert!((m.prediction_mean_mm - 3.0).abs() < 1e-9, "{m:?}");
+        assert!(m.truth_mean_mm.abs() < 1e-12 && m.truth_max_mm.abs() < 1e-12);
     }
 }

@@ -16,7 +16,9 @@ use crate::data::loader::{SampleKey, TrainingDataset};
 use crate::data::split::Split;
 use crate::error::{Error, Result};
 use crate::evaluation::plots::{Series, line_chart};
-use crate::evaluation::prediction_errors::{VertexErrors, predict_baseline, predict_garmatnet};
+use crate::evaluation::prediction_errors::{
+    Mirror, VertexErrors, predict_baseline, predict_garmatnet,
+};
 use crate::evaluation::report::SampleErrors;
 use crate::training::baseline::Baseline;
 use garmatnet_core::slug;
@@ -74,7 +76,7 @@ pub(crate) fn heat_maps(
     data: &TrainingDataset,
     garmatnet: &[(SampleKey, VertexErrors)],
     (baseline, baseline_nets): (&[(SampleKey, VertexErrors)], Option<&Baseline>),
-    model: &GarMatNetModel,
+    (model, mirror): (&GarMatNetModel, Mirror<'_>),
     device: &Device,
 ) -> Result<Vec<String>> {
     // The first target material, or without targets the first fabric tested.
@@ -108,7 +110,7 @@ pub(crate) fn heat_maps(
     let mut files = Vec::new();
     for (key, errors) in chosen {
         let truth = data.truth(*key)?;
-        let pred = predict_garmatnet(model, data, &[*key], device)?.remove(0);
+        let pred = predict_garmatnet(model, data, &[*key], device, mirror)?.remove(0);
         let garment: Vec<Vec3> = truth
             .body_points
             .iter()
@@ -152,7 +154,7 @@ pub(crate) fn heat_maps(
         let colours = heat_colors(&errors.whole, scale);
         let mut images = vec![draw(&mesh, &colours)?];
         if let (Some(b), Some(net)) = (base, baseline_net) {
-            let pred_b = predict_baseline(net, data, &[*key], device)?.remove(0);
+            let pred_b = predict_baseline(net, data, &[*key], device, mirror)?.remove(0);
             let garment_b: Vec<Vec3> = truth
                 .body_points
                 .iter()

@@ -94,17 +94,24 @@ pub(crate) fn load_with_same_test(
     Ok(model)
 }
 
-/// `[B, 72]` and `[B, 6]` input tensors of `keys`.
+/// `[B, 72]` and `[B, 6]` input tensors of `keys`, at each sample's pose or, `mirrored`,
+/// at its mirror image ([`garmatnet_core::Pose::mirrored`]).
 fn input_tensors(
     data: &TrainingDataset,
     keys: &[SampleKey],
     device: &Device,
+    mirrored: bool,
 ) -> (Tensor<2>, Tensor<2>) {
     let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
     let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
     for &k in keys {
         let (p, m) = data.inputs(k);
-        poses.extend(p);
+        if mirrored {
+            let pose = data.spec().poses[k.pose].mirrored();
+            poses.extend(pose.to_vec().iter().map(|&v| v as f32));
+        } else {
+            poses.extend(p);
+        }
         materials.extend(m);
     }
     let b = keys.len();
@@ -120,22 +127,26 @@ fn to_f32(t: Tensor<2>) -> Vec<f32> {
         .unwrap_or_else(|e| panic!("reading a tensor back from the device failed: {e:?}"))
 }
 
-/// Denormalised world-frame displacements of each row of `fitting` / `local` (`[B, 3n]`).
+/// Denormalised world-frame displacements of each row of `fitting` / `local` (`[B, 3n]`),
+/// the nets' output at each key's pose or, `mirrored`, at its mirror image.
 fn assemble(
     data: &TrainingDataset,
     keys: &[SampleKey],
-    fitting: &[f32],
-    local: &[f32],
+    (fitting, local): (&[f32], &[f32]),
     norms: (&OutputNormalizer, &OutputNormalizer),
     frame: DisplacementFrame,
+    mirrored: bool,
 ) -> Vec<Prediction> {
     let n3 = 3 * data.vertex_count();
     keys.iter()
         .enumerate()
         .map(|(b, &key)| {
-            let transforms = data
-                .skeleton()
-                .skinning_transforms(&data.spec().poses[key.pose]);
+            let pose = &data.spec().poses[key.pose];
+            let transforms = if mirrored {
+                data.skeleton().skinning_transforms(&pose.mirrored())
+            } else {
+                data.skeleton().skinning_transforms(pose)
+            };
             let anchors = &data.garment().anchors;
             let field = |raw: &[f32], norm: &OutputNormalizer| -> Vec<Vec3> {
                 let d = norm.denormalize(&raw[b * n3..(b + 1) * n3]);
@@ -152,42 +163,90 @@ fn assemble(
         .collect()
 }
 
+/// Whether predictions are mirror-averaged as [`garmatnet_model::Predictor`]'s are
+/// (`Predictor::with_mirror_averaging`): `Some` with the template's mirror twins.
+pub(crate) type Mirror<'a> = Option<&'a [u32]>;
+
+/// The mirror twins of `data`'s template when `on`.
+pub(crate) fn mirror_of(data: &TrainingDataset, on: bool) -> Mirror<'_> {
+    on.then(|| data.garment().mirror_twins())
+}
+
+/// GarMatNet's predictions of `keys`, mirror-averaged when `mirror` holds twins.
 pub(crate) fn predict_garmatnet(
     model: &GarMatNetModel,
     data: &TrainingDataset,
     keys: &[SampleKey],
     device: &Device,
+    mirror: Mirror<'_>,
 ) -> Result<Vec<Prediction>> {
-    let (p, m) = input_tensors(data, keys, device);
-    let fitting = to_f32(model.fitting.forward(p.clone(), m.clone()));
-    let local = to_f32(model.local.forward(p, m));
-    Ok(assemble(
-        data,
-        keys,
-        &fitting,
-        &local,
-        (&model.fitting_norm, &model.local_norm),
-        model.displacement_frame(),
-    ))
+    let run = |mirrored: bool| {
+        let (p, m) = input_tensors(data, keys, device, mirrored);
+        let fitting = to_f32(model.fitting.forward(p.clone(), m.clone()));
+        let local = to_f32(model.local.forward(p, m));
+        assemble(
+            data,
+            keys,
+            (&fitting, &local),
+            (&model.fitting_norm, &model.local_norm),
+            model.displacement_frame(),
+            mirrored,
+        )
+    };
+    Ok(mirror_averaged(run(false), mirror, || run(true)))
 }
 
+/// The baseline's predictions of `keys`, mirror-averaged when `mirror` holds twins.
 pub(crate) fn predict_baseline(
     m: &crate::training::baseline::BaselineMaterial,
     data: &TrainingDataset,
     keys: &[SampleKey],
     device: &Device,
+    mirror: Mirror<'_>,
 ) -> Result<Vec<Prediction>> {
-    let (p, _) = input_tensors(data, keys, device);
-    let fitting = to_f32(m.fitting.forward(p.clone()));
-    let local = to_f32(m.local.forward(p));
-    Ok(assemble(
-        data,
-        keys,
-        &fitting,
-        &local,
-        (&m.fitting_norm, &m.local_norm),
-        DisplacementFrame::World,
-    ))
+    let run = |mirrored: bool| {
+        let (p, _) = input_tensors(data, keys, device, mirrored);
+        let fitting = to_f32(m.fitting.forward(p.clone()));
+        let local = to_f32(m.local.forward(p));
+        assemble(
+            data,
+            keys,
+            (&fitting, &local),
+            (&m.fitting_norm, &m.local_norm),
+            DisplacementFrame::World,
+            mirrored,
+        )
+    };
+    Ok(mirror_averaged(run(false), mirror, || run(true)))
+}
+
+/// `own`, or with twins its mean with the mirror image of `mirrored()`, the predictions at
+/// the mirrored poses: each vertex's displacement becomes the mean of its own and its twin's
+/// reflected (x → −x), as `Predictor::with_mirror_averaging` makes them.
+fn mirror_averaged(
+    own: Vec<Prediction>,
+    mirror: Mirror<'_>,
+    mirrored: impl FnOnce() -> Vec<Prediction>,
+) -> Vec<Prediction> {
+    let Some(twins) = mirror else {
+        return own;
+    };
+    let fold = |d: &[Vec3], other: &[Vec3]| -> Vec<Vec3> {
+        d.iter()
+            .zip(twins)
+            .map(|(di, &t)| {
+                let e = other[t as usize];
+                0.5 * (di + Vec3::new(-e.x, e.y, e.z))
+            })
+            .collect()
+    };
+    own.into_iter()
+        .zip(mirrored())
+        .map(|(a, b)| Prediction {
+            d_fitting: fold(&a.d_fitting, &b.d_fitting),
+            d_local: fold(&a.d_local, &b.d_local),
+        })
+        .collect()
 }
 
 /// Per-vertex errors (metres) of a prediction against the truth.

@@ -226,6 +226,66 @@ pub struct HeldOutSet {
     /// reports written before it was recorded).
     #[serde(default)]
     pub per_material: Vec<MaterialErrors>,
+    /// How far predictions and truths are from their own mirror image at the set's
+    /// left-right symmetric poses (those equal to their [`garmatnet_core::Pose::mirrored`]);
+    /// `None` when it has none (and in reports written before it was measured).
+    #[serde(default)]
+    pub symmetry: Option<MirrorSymmetry>,
+}
+
+/// Mirror asymmetry at left-right symmetric poses: per sample, the mean over vertices of
+/// `|x_i - mirror(x_twin(i))|` (mm), of the raw prediction (before push-out) and of the
+/// true drape. A symmetric pose should give a symmetric drape; the body's own asymmetry
+/// (SMPL's joints differ left to right by up to 6 mm) sets a floor under both.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MirrorSymmetry {
+    /// Samples at symmetric poses.
+    pub samples: usize,
+    /// The predictions' asymmetry, mean over those samples (mm).
+    pub prediction_mean_mm: f64,
+    /// The predictions' asymmetry, largest sample (mm).
+    pub prediction_max_mm: f64,
+    /// The truths' asymmetry, mean over those samples (mm).
+    pub truth_mean_mm: f64,
+    /// The truths' asymmetry, largest sample (mm).
+    pub truth_max_mm: f64,
+}
+
+/// Everything [`crate::evaluate_held_out`] measured: a model on held-out datasets alone,
+/// without the dataset it was trained on (the shipped model's case).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutReport {
+    /// The model file, as given.
+    pub model: String,
+    /// Whether predictions were mirror-averaged ([`crate::EvalConfig::mirror_averaging`]).
+    pub mirror_averaging: bool,
+    /// The training fabrics the model file records (a held-out fabric counts as seen when
+    /// its name and ω match one).
+    pub training_fabrics: Vec<String>,
+    /// The error on each held-out dataset, in the order given.
+    pub held_out_sets: Vec<HeldOutSet>,
+}
+
+impl HeldOutReport {
+    /// Writes `report.json` and `report.md` into `out_dir`, atomically.
+    ///
+    /// # Errors
+    /// [`Error::Core`] (I/O) if a file cannot be written.
+    pub fn write(&self, out_dir: &Path) -> Result<()> {
+        let json = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
+            what: "the held-out report",
+            source,
+        })?;
+        garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
+        garmatnet_core::write_bytes_atomic(
+            out_dir.join("report.md"),
+            self.to_markdown().as_bytes(),
+        )?;
+        for f in ["report.json", "report.md"] {
+            make_readable(&out_dir.join(f));
+        }
+        Ok(())
+    }
 }
 
 /// A non-learned reference on the Table 2 samples: the true drape, at the same test pose, of
@@ -332,6 +392,10 @@ pub struct Report {
     /// The error on each held-out dataset given to `eval --held-out`, in the order given.
     #[serde(default)]
     pub held_out_sets: Vec<HeldOutSet>,
+    /// Whether predictions were mirror-averaged ([`crate::EvalConfig::mirror_averaging`];
+    /// `false` in reports written before it existed, which were not).
+    #[serde(default)]
+    pub mirror_averaging: bool,
     /// Files written next to the report (plots, heat maps, PLY), relative to it.
     pub files: Vec<String>,
 }

@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 
 use crate::evaluation::report::{
-    ErrorStats, MaterialErrors, PhysicalQuality, Report, SampleErrors,
+    ErrorStats, HeldOutReport, HeldOutSet, MaterialErrors, PhysicalQuality, Report, SampleErrors,
 };
 
 impl Report {
@@ -87,24 +87,7 @@ impl Report {
                 }
             }
         }
-        for set in &self.held_out_sets {
-            for (part, stats) in [
-                ("", Some(&set.all)),
-                (", training fabrics", set.training_fabrics.as_ref()),
-                (", unseen fabrics", set.unseen_fabrics.as_ref()),
-            ] {
-                if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples) {
-                    error_row(&mut s, &format!("GarMatNet, {}{part}", set.name), e);
-                }
-            }
-            if let Some(e) = &set.converged_only {
-                let name = format!(
-                    "GarMatNet, {}, converged truth only ({} left out)",
-                    set.name, set.unconverged
-                );
-                error_row(&mut s, &name, e);
-            }
-        }
+        held_out_rows(&mut s, &self.held_out_sets);
         if let Some(f) = &self.fabric_lookup {
             let nearest: Vec<String> = f
                 .nearest_to
@@ -160,6 +143,7 @@ impl Report {
         for set in &self.held_out_sets {
             held_out_material_table(&mut s, &set.name, &set.per_material);
         }
+        symmetry_table(&mut s, &self.held_out_sets);
         fabric_distance_table(&mut s, self);
         let _ = writeln!(s, "\n## Per material and pose (whole pipeline, mm)\n");
         let _ = writeln!(s, "| Material | Pose | Frame | GarMatNet | Baseline |");
@@ -304,6 +288,97 @@ fn test_set_material_table(s: &mut String, rows: &[MaterialErrors]) {
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         error_row(s, &material_label(r), &r.garmatnet);
+    }
+}
+
+impl HeldOutReport {
+    /// The report as Markdown tables.
+    #[must_use]
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "# GarMatNet on held-out sets
+"
+        );
+        let _ = writeln!(
+            s,
+            "Model `{}` ({} training fabrics recorded), mirror averaging {}.\n",
+            self.model,
+            self.training_fabrics.len(),
+            if self.mirror_averaging { "on" } else { "off" }
+        );
+        let _ = writeln!(s, "## Mean per-vertex error (mm)\n");
+        let _ = writeln!(
+            s,
+            "| Set | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+        held_out_rows(&mut s, &self.held_out_sets);
+        for set in &self.held_out_sets {
+            held_out_material_table(&mut s, &set.name, &set.per_material);
+        }
+        symmetry_table(&mut s, &self.held_out_sets);
+        for set in &self.held_out_sets {
+            if let Some(q) = &set.physical_quality {
+                physical_quality_table(&mut s, &set.name, q);
+            }
+        }
+        s
+    }
+}
+
+/// Each held-out set's rows of the error table: all of it, its training and unseen fabrics
+/// when it has both, and its converged truths when some did not converge.
+fn held_out_rows(s: &mut String, sets: &[HeldOutSet]) {
+    for set in sets {
+        for (part, stats) in [
+            ("", Some(&set.all)),
+            (", training fabrics", set.training_fabrics.as_ref()),
+            (", unseen fabrics", set.unseen_fabrics.as_ref()),
+        ] {
+            if let Some(e) = stats.filter(|e| part.is_empty() || e.samples != set.all.samples) {
+                error_row(s, &format!("GarMatNet, {}{part}", set.name), e);
+            }
+        }
+        if let Some(e) = &set.converged_only {
+            let name = format!(
+                "GarMatNet, {}, converged truth only ({} left out)",
+                set.name, set.unconverged
+            );
+            error_row(s, &name, e);
+        }
+    }
+}
+
+/// The mirror asymmetry of predictions and truths at the held-out sets' symmetric poses.
+fn symmetry_table(s: &mut String, sets: &[HeldOutSet]) {
+    if sets.iter().all(|set| set.symmetry.is_none()) {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## Mirror asymmetry at left-right symmetric poses (mm, mean over vertices of \
+         |x_i − mirror(x_twin)|, raw predictions)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| Set | Samples | Prediction, mean | Prediction, max | Truth, mean | Truth, max |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+    for set in sets {
+        if let Some(m) = &set.symmetry {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                set.name,
+                m.samples,
+                m.prediction_mean_mm,
+                m.prediction_max_mm,
+                m.truth_mean_mm,
+                m.truth_max_mm
+            );
+        }
     }
 }
 

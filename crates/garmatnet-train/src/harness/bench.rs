@@ -27,7 +27,7 @@ use crate::data::files::split_path;
 use crate::data::loader::{SampleKey, TrainingDataset};
 use crate::data::split::Split;
 use crate::error::{Error, Result};
-use crate::evaluation::prediction_errors::{load_with_same_test, predict_baseline};
+use crate::evaluation::prediction_errors::{load_with_same_test, mirror_of, predict_baseline};
 use crate::training::baseline::Baseline;
 
 pub use crate::harness::bench_report::{BenchReport, BenchRow};
@@ -556,7 +556,9 @@ fn bench_baseline(
         let truth = data.truth(case.key)?;
         for r in 0..config.repeats {
             let started = Instant::now();
-            let prediction = predict_baseline(net, data, &[case.key], &device)?.remove(0);
+            // Mirror-averaged as the GarMatNet rows' predictor (`for_garment`) averages.
+            let prediction =
+                predict_baseline(net, data, &[case.key], &device, mirror_of(data, true))?.remove(0);
             let mut garment: Vec<Vec3> = truth
                 .body_points
                 .iter()
