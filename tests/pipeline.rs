@@ -343,6 +343,58 @@ fn simulate_train_and_evaluate_from_the_command_line() -> anyhow::Result<()> {
     // `--held-out 6,2` holds out frames 0, 1, 6 and 7 of the 12.
     assert_eq!(report["held_out_poses"], 4, "{report}");
     assert_eq!(report["held_out_rule"], "frames 0–1 of every 6");
+    assert_eq!(report["mirror_averaging"], true, "the predictor's default");
+
+    // Without --data: held-out sets alone, no split file read (the training data read whole
+    // as one, for the code path), with and without mirror averaging.
+    for (out, extra) in [
+        ("held-on", None),
+        ("held-off", Some("--no-mirror-averaging")),
+    ] {
+        let args = [
+            "eval",
+            "--model",
+            "model.safetensors",
+            "--held-out",
+            "whole=data",
+            "--report",
+            out,
+        ];
+        let printed = garmatnet(&[&args[..], extra.as_slice()].concat(), dir)?;
+        assert!(printed.contains("GarMatNet (whole, "), "{printed}");
+    }
+    let held: Vec<serde_json::Value> = ["held-on", "held-off"]
+        .iter()
+        .map(|out| {
+            let file = std::fs::read(dir.join(out).join("report.json"))?;
+            Ok(serde_json::from_slice(&file)?)
+        })
+        .collect::<anyhow::Result<_>>()?;
+    assert_eq!(held[0]["mirror_averaging"], true);
+    assert_eq!(held[1]["mirror_averaging"], false);
+    let whole = |r: &serde_json::Value| r["held_out_sets"][0]["all"]["whole_mm"].as_f64();
+    assert!(whole(&held[0]).is_some_and(f64::is_finite), "{}", held[0]);
+    assert_ne!(whole(&held[0]), whole(&held[1]));
+    let refused = garmatnet(
+        &[
+            "eval",
+            "--model",
+            "model.safetensors",
+            "--baseline",
+            "baseline",
+            "--held-out",
+            "whole=data",
+            "--report",
+            "held-baseline",
+        ],
+        dir,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        refused.contains("give the dataset it was trained on with --data"),
+        "{refused}"
+    );
 
     // Fabric calibration: every fabric calibrated with its drapes at two poses the model
     // trained on, its other ten poses predicted with and without it.
