@@ -42,7 +42,8 @@ enum Command {
     EvalCalibration(cli::calibrate::EvalCalibrationArgs),
     /// Average models trained with different seeds into one (an ensemble in one model file).
     Ensemble(cli::ensemble::EnsembleArgs),
-    /// Evaluate a model on its held-out split and write the report.
+    /// Evaluate a model on its held-out split, or without --data on --held-out sets alone,
+    /// and write the report.
     Eval(cli::eval::EvalArgs),
     /// Run time against error: the simulator at several budgets, GarMatNet variants and
     /// the baseline on the same held-out samples (bench.json, bench.md, pareto.png).

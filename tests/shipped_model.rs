@@ -114,9 +114,11 @@ fn the_shipped_model_drapes_a_symmetric_pose_symmetrically() -> anyhow::Result<(
             a < 0.5e-3,
             "{name}: averaged garment {a} m from its mirror image"
         );
+        // A tripwire, not a requirement: it shows the check above can fail. A retrained model
+        // whose own nets are symmetric trips it; then drop it.
         assert!(
             r > 5e-3,
-            "{name}: the raw nets were measured lopsided, now {r} m"
+            "{name}: the shipped nets alone were measured lopsided, now {r} m: retrained?"
         );
     }
     Ok(())

@@ -80,7 +80,8 @@ pub struct DrapeArgs {
     pub no_push_out: bool,
     /// Predict without mirror averaging: the nets' garment at the pose alone, not averaged
     /// with the mirror image of their garment at the mirrored pose (half the nets' time; a
-    /// symmetric pose may then get a lopsided garment).
+    /// symmetric pose may then get a lopsided garment). A `--calibration` was fitted to
+    /// mirror-averaged predictions, and its reference errors describe those.
     #[arg(long)]
     pub no_mirror_averaging: bool,
 }

@@ -44,8 +44,8 @@ pub struct EvalArgs {
     /// (seconds a sample); default 0: skip.
     #[arg(long, default_value_t = 0)]
     pub newton_samples: usize,
-    /// Evaluate the raw predictions, without the mirror averaging the predictor applies by
-    /// default (`Predictor::with_mirror_averaging`).
+    /// Evaluate the nets' own predictions, without the mirror averaging the predictor
+    /// applies by default (`Predictor::with_mirror_averaging`).
     #[arg(long)]
     pub no_mirror_averaging: bool,
 }
@@ -151,7 +151,7 @@ fn held_out_lines(sets: &[garmatnet::train::HeldOutSet]) -> Result<()> {
         }
         if let Some(m) = &set.symmetry {
             outln!(
-                "  mirror asymmetry at {} symmetric samples (raw predictions [ground truth]): \
+                "  mirror asymmetry at {} symmetric samples (before push-out [ground truth]): \
                  mean {:.2} mm [{:.2}], max {:.2} mm [{:.2}]",
                 m.samples,
                 m.prediction_mean_mm,

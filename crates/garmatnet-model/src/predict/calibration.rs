@@ -24,7 +24,8 @@
 //! function of the nets' last hidden activation (output layer, low-rank basis, normaliser
 //! and displacement frame are all affine), so the blend of the F + 1 predictions is the
 //! prediction from the same blend of hidden activations: a calibrated frame runs the hidden
-//! layers on F + 1 rows and the output layer on one.
+//! layers on F + 1 rows and the output layer on one (twice that with mirror averaging: the
+//! pose and its mirror image).
 //!
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -581,7 +582,7 @@ impl Predictor {
             .iter()
             .enumerate()
             .map(|(i, pose)| {
-                let garment = |row: usize, pose: &Pose| {
+                let garment = |row: usize, pose: &Pose, at: &str| {
                     let d_fit = model
                         .fitting_norm
                         .denormalize(&fitting[row * n3..(row + 1) * n3]);
@@ -593,12 +594,12 @@ impl Predictor {
                         &d_fit,
                         d_loc.as_deref(),
                         None,
-                        &format!("calibrated pose {i}"),
+                        &format!("calibrated pose {i}{at}"),
                     )
                 };
-                let mut vertices = garment(i, pose)?;
+                let mut vertices = garment(i, pose, "")?;
                 if let Some(twins) = twins {
-                    let other = garment(poses.len() + i, &mirrored[i])?;
+                    let other = garment(poses.len() + i, &mirrored[i], ", at the mirrored pose")?;
                     self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
                 }
                 Ok(GarmentMesh {
@@ -647,7 +648,7 @@ fn blended_forward(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::{TEST_VERTICES, cpu, small_model, test_predictor};
+    use crate::test_util::{TEST_VERTICES, cpu, small_model, test_predictor, test_twins};
     use garmatnet_core::{JointLimits, SplitMix64};
 
     const FABRICS: [&str; 4] = ["Denim Heavy", "Linen", "Silk Chiffon", "Felt"];
@@ -720,8 +721,19 @@ mod tests {
     fn a_calibrated_prediction_is_the_weighted_sum_of_the_fabrics_predictions() {
         // The blend of hidden activations must equal the blend of the garments, for full
         // and low-rank heads and both detail levels.
-        for rank in [None, Some(8)] {
-            let p = predictor(rank);
+        // With mirror averaging too (linear, so it commutes with the blend), which also
+        // checks the mirrored rows' offset in a batch of several poses.
+        for (rank, mirror) in [
+            (None, false),
+            (Some(8), false),
+            (None, true),
+            (Some(8), true),
+        ] {
+            let p = if mirror {
+                predictor(rank).with_mirror_twins(&test_twins()).unwrap()
+            } else {
+                predictor(rank)
+            };
             let own = Material::preset("Velvet").unwrap().to_normalized();
             let calibration = with_weights(&p, own, [0.7, -0.2, 0.4, 0.0]);
             let poses = poses(3, 5);

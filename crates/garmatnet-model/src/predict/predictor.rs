@@ -291,9 +291,12 @@ impl Predictor {
     /// mean of the nets' garment at θ and the mirror image (x → −x, each vertex taking its
     /// twin's displacement) of their garment at the mirrored pose ([`Pose::mirrored`]),
     /// each displacement measured from its own posed body anchor; push-out comes after the
-    /// mean. A left-right symmetric pose then gets a left-right symmetric garment (to the
-    /// body's own asymmetry), and the mirrored pose gets exactly the mirror image, at the
-    /// cost of running the nets on twice the poses. [`Predictor::for_garment`] turns it on;
+    /// mean. A left-right symmetric pose then gets a left-right symmetric garment (to
+    /// float rounding, on the library's mirror-symmetric body), and the mirrored pose the
+    /// mirror image, at the
+    /// cost of running the nets on twice the poses. [`Predictor::for_garment`] turns it on
+    /// (for the fitted shirt's exact twins; a boxy-shirt model of versions up to 0.3 gets it
+    /// too, where twins sit up to 6 mm from each other's mirror image at rest);
     /// its effect on accuracy is measured in book/src/experiments/everyday-symmetry.md. The
     /// result counts as a new predictor, as [`Predictor::with_push_out`]'s does.
     ///
@@ -517,7 +520,7 @@ impl Predictor {
             .iter()
             .enumerate()
             .map(|(b, (pose, _))| {
-                let garment = |row: usize, pose: &Pose| {
+                let garment = |row: usize, pose: &Pose, at: &str| {
                     let d_fit = self
                         .model
                         .fitting_norm
@@ -532,12 +535,12 @@ impl Predictor {
                         &d_fit,
                         d_loc.as_deref(),
                         None,
-                        &format!("batch item {b}"),
+                        &format!("batch item {b}{at}"),
                     )
                 };
-                let mut vertices = garment(b, pose)?;
+                let mut vertices = garment(b, pose, "")?;
                 if let Some(twins) = twins {
-                    let other = garment(b_all + b, &mirrored[b])?;
+                    let other = garment(b_all + b, &mirrored[b], ", at the mirrored pose")?;
                     self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
                 }
                 Ok(GarmentMesh {
@@ -989,7 +992,19 @@ mod tests {
 
     #[test]
     fn predictions_are_finite_and_batch_matches_single() {
-        let p = predictor(1, DisplacementFrame::World);
+        // With mirror averaging too: each item's mirrored pose sits B rows further down.
+        for mirror in [false, true] {
+            let p = predictor(1, DisplacementFrame::World);
+            let p = if mirror {
+                p.with_mirror_twins(&test_twins()).unwrap()
+            } else {
+                p
+            };
+            batch_matches_single(&p);
+        }
+    }
+
+    fn batch_matches_single(p: &Predictor) {
         let mut rng = SplitMix64::new(9);
         let limits = JointLimits::default();
         let items: Vec<_> = (0..4)

@@ -3,7 +3,8 @@
 //! [`Scene::update`] predicts only characters whose pose, material, detail or vertex subset
 //! changed since the last update, in one batched forward pass per detail level; it reuses
 //! the material branch's activation per material and, for characters that only need some
-//! vertices (e.g. those visible or near a collider), computes only those output rows.
+//! vertices (e.g. those visible or near a collider), computes only those output rows (and,
+//! with mirror averaging, their twins' rows at the mirrored pose).
 //! Outputs are pushed out of the posed body as [`Predictor::predict`]'s are (when the
 //! predictor knows the body and push-out is on: [`Predictor::with_push_out`]).
 
@@ -372,7 +373,7 @@ impl Scene {
                     &displacements[0][b + r],
                     displacements.get(1).map(|d| d[b + r].as_slice()),
                     twin_ids,
-                    &what,
+                    &format!("{what}, at the mirrored pose"),
                 )?;
                 match subset {
                     // `other` holds the twins of the subset, in the subset's order.

@@ -291,3 +291,63 @@ pub(crate) fn error_stats<'a>(errors: impl Iterator<Item = &'a VertexErrors>) ->
         samples,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::synthetic_dataset;
+    use garmatnet_core::TemplateInfo;
+    use garmatnet_model::{Detail, GarMatNetConfig, Predictor, select_device};
+
+    #[test]
+    fn eval_averages_the_mirror_as_the_predictor_does() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("data");
+        synthetic_dataset(&path, 2, 3);
+        let data = TrainingDataset::open(&path, false).unwrap();
+        let device = select_device("cpu").unwrap();
+        let keys = data.keys();
+        for frame in [DisplacementFrame::World, DisplacementFrame::Canonical] {
+            let mut config = GarMatNetConfig::new(data.vertex_count(), 8, 4, 8);
+            config.displacement_frame = frame;
+            let model =
+                GarMatNetModel::untrained(&config, TemplateInfo::of(data.garment()), &device);
+            let predictor = Predictor::new(
+                model.clone(),
+                data.garment().rest.faces.clone(),
+                data.garment().anchors.clone(),
+                data.template_hash(),
+                data.skeleton().clone(),
+                &device,
+            )
+            .unwrap()
+            .with_mirror_twins(data.garment().mirror_twins())
+            .unwrap();
+            let averaged = predict_garmatnet(&model, &data, &keys, &device, mirror_of(&data, true));
+            let raw = predict_garmatnet(&model, &data, &keys, &device, mirror_of(&data, false));
+            let (averaged, raw) = (averaged.unwrap(), raw.unwrap());
+            for ((key, pred), raw) in keys.iter().zip(&averaged).zip(&raw) {
+                let pose = &data.spec().poses[key.pose];
+                let omega = data.spec().materials[key.material].omega_normalized;
+                let mesh = predictor
+                    .predict_normalized(pose, &omega, Detail::Full)
+                    .unwrap();
+                let body = predictor.body_points(pose);
+                let garment = |p: &Prediction, i: usize| body[i] + p.d_fitting[i] + p.d_local[i];
+                let mut moved = 0.0f64;
+                for (i, v) in mesh.vertices.iter().enumerate() {
+                    let gap = (garment(pred, i) - v).norm();
+                    assert!(
+                        gap < 1e-5 * v.norm().max(1.0),
+                        "{frame:?} {key:?} {i}: {gap}"
+                    );
+                    moved = moved.max((garment(raw, i) - v).norm());
+                }
+                assert!(
+                    moved > 1e-3,
+                    "{frame:?}: averaging changed nothing ({moved} m)"
+                );
+            }
+        }
+    }
+}

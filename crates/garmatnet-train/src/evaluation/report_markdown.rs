@@ -28,6 +28,15 @@ impl Report {
         );
         let _ = writeln!(
             s,
+            "Mirror averaging {}.\n",
+            if self.mirror_averaging {
+                "on"
+            } else {
+                "off (the nets' own predictions)"
+            }
+        );
+        let _ = writeln!(
+            s,
             "## Mean per-vertex error (mm), {}\n",
             if self.test_materials.is_empty() {
                 "every fabric × held-out poses"
@@ -311,7 +320,7 @@ impl HeldOutReport {
         let _ = writeln!(s, "## Mean per-vertex error (mm)\n");
         let _ = writeln!(
             s,
-            "| Set | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
+            "| Method | Samples | Generally-fitting | Locally-detailed | Whole | Whole p95 | Whole max |"
         );
         let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
         held_out_rows(&mut s, &self.held_out_sets);
@@ -359,7 +368,7 @@ fn symmetry_table(s: &mut String, sets: &[HeldOutSet]) {
     let _ = writeln!(
         s,
         "\n## Mirror asymmetry at left-right symmetric poses (mm, mean over vertices of \
-         |x_i − mirror(x_twin)|, raw predictions)\n"
+         |x_i − mirror(x_twin)|, predictions before push-out)\n"
     );
     let _ = writeln!(
         s,

@@ -37,7 +37,8 @@ impl StressReport {
     }
 }
 
-/// The largest batch [`stress_predictor`] takes: 4,096 garments, ~200 MB at paper resolution.
+/// The largest batch [`stress_predictor`] takes: 4,096 garments, ~200 MB at paper resolution
+/// (twice the nets' activations with mirror averaging on).
 pub const MAX_STRESS_BATCH: usize = 4096;
 
 /// Predicts `count` random pairs, seeded: poses uniformly within the joint limits (the whole
