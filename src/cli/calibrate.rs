@@ -51,6 +51,11 @@ pub struct CalibrateArgs {
     /// The calibration file to write (JSON); `garmatnet drape --calibration` reads it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Fit to the nets' own predictions, without mirror averaging; the calibration is then
+    /// used with `drape --no-mirror-averaging` (a predictor with the other setting refuses
+    /// it).
+    #[arg(long)]
+    pub no_mirror_averaging: bool,
 }
 
 /// The default reference poses: pose 1 of the shipped model's dataset, a pose it was trained
@@ -107,7 +112,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     }
     let device = select_device("cpu")?;
     let model_path = args.model.clone().unwrap_or_else(default_model_path);
-    let predictor = Predictor::from_file(&model_path, &device)?;
+    let predictor = Predictor::from_file(&model_path, &device)?
+        .with_mirror_averaging(!args.no_mirror_averaging)?;
     if predictor.training_fabrics().is_empty() {
         bail!(
             "{} records no training fabrics to blend; calibrate with a model trained by this \

@@ -162,6 +162,12 @@ pub struct FabricCalibration {
     /// it was recorded; those are checked by template and training fabrics alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_fingerprint: Option<String>,
+    /// Whether it was fitted to mirror-averaged predictions
+    /// ([`Predictor::with_mirror_averaging`]): the weights fit the predictions as they were
+    /// made, so a predictor with the other setting refuses it. `false` in files written
+    /// before mirror averaging existed (0.5.0), which were fitted to the nets alone.
+    #[serde(default)]
+    pub mirror_averaging: bool,
     /// The settings it was fitted with.
     pub settings: CalibrationSettings,
     /// How many reference drapes it was fitted to.
@@ -184,7 +190,8 @@ impl FabricCalibration {
     /// Checks that the calibration is usable with `predictor`: finite weights summing to
     /// one whose absolute values sum to at most [`MAX_ABSOLUTE_WEIGHT_SUM`], ω inside the
     /// unit cube, valid settings, a non-empty name, at least one reference drape, finite
-    /// non-negative reference errors, and the predictor's template and training fabrics.
+    /// non-negative reference errors, and the predictor's template, training fabrics and
+    /// mirror averaging.
     ///
     /// # Errors
     /// [`Error::Calibration`] naming the field or what differs and saying to calibrate
@@ -246,6 +253,16 @@ impl FabricCalibration {
                  this one's",
                 predictor.model_fingerprint()
             ));
+        }
+        if self.mirror_averaging != predictor.mirror_averaging() {
+            let on_off = |on: bool| if on { "on" } else { "off" };
+            return Err(Error::Calibration(format!(
+                "the calibration was fitted with mirror averaging {}, and this predictor has it \
+                 {}: predict with the setting it was fitted with (`drape \
+                 --no-mirror-averaging` turns it off), or calibrate again",
+                on_off(self.mirror_averaging),
+                on_off(predictor.mirror_averaging())
+            )));
         }
         let fabrics = predictor.training_fabrics();
         let same = fabrics.len() == self.training.len()
@@ -469,6 +486,7 @@ impl Predictor {
             training,
             template_hash: self.model().meta.template.hash.clone(),
             model_fingerprint: Some(self.model_fingerprint().to_owned()),
+            mirror_averaging: self.mirror_averaging(),
             settings: *settings,
             references: references.len(),
             reference_error_mm: before / count,
@@ -710,6 +728,7 @@ mod tests {
                 .collect(),
             template_hash: predictor.model().meta.template.hash.clone(),
             model_fingerprint: Some(predictor.model_fingerprint().to_owned()),
+            mirror_averaging: predictor.mirror_averaging(),
             settings: CalibrationSettings::default(),
             references: 1,
             reference_error_mm: 0.0,
@@ -926,6 +945,26 @@ mod tests {
         older.check_for(&other).unwrap();
         let json = serde_json::to_string(&older).unwrap();
         assert!(!json.contains("model_fingerprint"), "{json}");
+        // Fitted to the nets alone (this predictor has no twins), it is refused by the same
+        // model with mirror averaging on, as a file from before mirror averaging is.
+        assert!(!c.mirror_averaging);
+        let averaging = predictor(None).with_mirror_twins(&test_twins()).unwrap();
+        assert_eq!(averaging.model_fingerprint(), p.model_fingerprint());
+        let err = c.check_for(&averaging).unwrap_err().to_string();
+        assert!(
+            err.contains("fitted with mirror averaging off") && err.contains("has it on"),
+            "{err}"
+        );
+        let before = json.replace(",\"mirror_averaging\":false", "");
+        assert_ne!(before, json, "{json}");
+        let before: FabricCalibration = serde_json::from_str(&before).unwrap();
+        assert!(!before.mirror_averaging);
+        let fitted = averaging
+            .calibrate("v", &velvet, &reference, &settings)
+            .unwrap();
+        assert!(fitted.mirror_averaging);
+        fitted.check_for(&averaging).unwrap();
+        assert!(fitted.check_for(&p).is_err());
         let mut edited = c.clone();
         edited.own_weight += 0.5;
         let err = p
