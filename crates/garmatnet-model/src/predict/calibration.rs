@@ -562,14 +562,11 @@ impl Predictor {
             .unzip();
         let f = omegas.len();
         let device = self.device();
-        let twins = self.averaging_twins();
-        // With mirror averaging, rows B..2B are the mirrored poses.
-        let mirrored: Vec<Pose> = match twins {
-            Some(_) => poses.iter().map(Pose::mirrored).collect(),
-            None => Vec::new(),
-        };
+        let poses: Vec<&Pose> = poses.iter().collect();
+        let mirrored = self.mirrored_poses(&poses);
         let rows: Vec<_> = poses
             .iter()
+            .copied()
             .chain(&mirrored)
             .map(|p| (p, &calibration.omega))
             .collect();
@@ -595,37 +592,12 @@ impl Predictor {
             Detail::Full => Some(run(&model.local)),
             Detail::Smooth => None,
         };
-        let n3 = 3 * self.vertex_count();
-        poses
-            .iter()
-            .enumerate()
-            .map(|(i, pose)| {
-                let garment = |row: usize, pose: &Pose, at: &str| {
-                    let d_fit = model
-                        .fitting_norm
-                        .denormalize(&fitting[row * n3..(row + 1) * n3]);
-                    let d_loc = local
-                        .as_ref()
-                        .map(|l| model.local_norm.denormalize(&l[row * n3..(row + 1) * n3]));
-                    self.assemble(
-                        pose,
-                        &d_fit,
-                        d_loc.as_deref(),
-                        None,
-                        &format!("calibrated pose {i}{at}"),
-                    )
-                };
-                let mut vertices = garment(i, pose, "")?;
-                if let Some(twins) = twins {
-                    let other = garment(poses.len() + i, &mirrored[i], ", at the mirrored pose")?;
-                    self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
-                }
-                Ok(GarmentMesh {
-                    vertices,
-                    faces: self.shared_faces(),
-                })
-            })
-            .collect()
+        self.garments_from_rows(
+            &poses,
+            &mirrored,
+            (&fitting, local.as_deref()),
+            "calibrated pose",
+        )
     }
 }
 

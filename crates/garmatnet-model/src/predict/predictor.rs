@@ -323,30 +323,6 @@ impl Predictor {
         self.twins.as_deref().filter(|_| self.mirror_averaging)
     }
 
-    /// Folds the nets' garment at the mirrored pose into `own`, their garment at `pose`
-    /// (of every vertex, or of the subset `vertices`): each vertex ends at its posed anchor
-    /// plus the mean of its own displacement and the mirror image of its twin's displacement
-    /// at the mirrored pose. `mirrored(k, twin)` gives that twin's position in the mirrored
-    /// garment for `own[k]`.
-    pub(crate) fn fold_mirrored(
-        &self,
-        twins: &[u32],
-        pose: &Pose,
-        own: &mut [Vec3],
-        vertices: Option<&[usize]>,
-        mirrored: impl Fn(usize, usize) -> Vec3,
-    ) {
-        let transforms = self.skeleton.skinning_transforms(pose);
-        let mirrored_transforms = self.skeleton.skinning_transforms(&pose.mirrored());
-        for (k, p) in own.iter_mut().enumerate() {
-            let v = vertices.map_or(k, |s| s[k]);
-            let twin = twins[v] as usize;
-            let anchor = self.anchors[v].posed_point(&transforms);
-            let d = mirrored(k, twin) - self.anchors[twin].posed_point(&mirrored_transforms);
-            *p = anchor + 0.5 * ((*p - anchor) + Vec3::new(-d.x, d.y, d.z));
-        }
-    }
-
     /// Predicts the garment for `pose` in `material`, pushed out of the posed body when the
     /// predictor knows the body ([`Predictor::for_garment`]) and push-out is enabled.
     ///
@@ -434,11 +410,6 @@ impl Predictor {
         &self.faces
     }
 
-    /// The template's faces as the meshes this predictor returns share them.
-    pub(crate) fn shared_faces(&self) -> Arc<[[u32; 3]]> {
-        Arc::clone(&self.faces)
-    }
-
     /// The number of garment vertices n.
     #[must_use]
     pub fn vertex_count(&self) -> usize {
@@ -493,20 +464,14 @@ impl Predictor {
         for (pose, material) in items {
             validate_inputs(pose, material)?;
         }
-        let twins = self.averaging_twins();
-        // With mirror averaging, rows B..2B are the mirrored poses.
-        let mirrored: Vec<Pose> = match twins {
-            Some(_) => items.iter().map(|(p, _)| p.mirrored()).collect(),
-            None => Vec::new(),
-        };
+        let poses: Vec<&Pose> = items.iter().map(|(p, _)| p).collect();
+        let mirrored = self.mirrored_poses(&poses);
         let rows: Vec<(&Pose, &[Real; MATERIAL_DIM])> = items
             .iter()
             .map(|(p, m)| (p, m))
             .chain(mirrored.iter().zip(items.iter().map(|(_, m)| m)))
             .collect();
         let (pose_t, material_t) = self.input_tensors(rows.into_iter());
-        let n3 = 3 * self.vertex_count();
-        let b_all = items.len();
         let fitting = to_f32(
             self.model
                 .fitting
@@ -516,33 +481,54 @@ impl Predictor {
             Detail::Full => Some(to_f32(self.model.local.forward(pose_t, material_t))),
             Detail::Smooth => None,
         };
-        items
+        self.garments_from_rows(
+            &poses,
+            &mirrored,
+            (&fitting, local.as_deref()),
+            "batch item",
+        )
+    }
+
+    /// `poses`' mirror images when mirror averaging is on (the nets' rows B..2B), else none.
+    pub(crate) fn mirrored_poses(&self, poses: &[&Pose]) -> Vec<Pose> {
+        match self.averaging_twins() {
+            Some(_) => poses.iter().map(|p| p.mirrored()).collect(),
+            None => Vec::new(),
+        }
+    }
+
+    /// The whole garments of `poses` from the nets' normalised outputs (`[rows, 3n]`: row `b`
+    /// for `poses[b]`, then, with mirror averaging, row `B + b` for `mirrored[b]`), each
+    /// mirror-averaged when `mirrored` is not empty; `what` names an item in errors.
+    pub(crate) fn garments_from_rows(
+        &self,
+        poses: &[&Pose],
+        mirrored: &[Pose],
+        (fitting, local): (&[f32], Option<&[f32]>),
+        what: &str,
+    ) -> Result<Vec<GarmentMesh>> {
+        let n3 = 3 * self.vertex_count();
+        // Row `row`'s denormalised displacements (fitting, local).
+        let row = |row: usize| {
+            let range = row * n3..(row + 1) * n3;
+            (
+                self.model.fitting_norm.denormalize(&fitting[range.clone()]),
+                local.map(|l| self.model.local_norm.denormalize(&l[range])),
+            )
+        };
+        poses
             .iter()
             .enumerate()
-            .map(|(b, (pose, _))| {
-                let garment = |row: usize, pose: &Pose, at: &str| {
-                    let d_fit = self
-                        .model
-                        .fitting_norm
-                        .denormalize(&fitting[row * n3..(row + 1) * n3]);
-                    let d_loc = local.as_ref().map(|l| {
-                        self.model
-                            .local_norm
-                            .denormalize(&l[row * n3..(row + 1) * n3])
-                    });
-                    self.assemble(
-                        pose,
-                        &d_fit,
-                        d_loc.as_deref(),
-                        None,
-                        &format!("batch item {b}{at}"),
-                    )
-                };
-                let mut vertices = garment(b, pose, "")?;
-                if let Some(twins) = twins {
-                    let other = garment(b_all + b, &mirrored[b], ", at the mirrored pose")?;
-                    self.fold_mirrored(twins, pose, &mut vertices, None, |_, t| other[t]);
-                }
+            .map(|(b, pose)| {
+                let own = row(b);
+                let other = (!mirrored.is_empty()).then(|| row(poses.len() + b));
+                let vertices = self.assemble(
+                    pose,
+                    (&own.0, own.1.as_deref()),
+                    other.as_ref().map(|(f, l)| (f.as_slice(), l.as_deref())),
+                    None,
+                    &format!("{what} {b}"),
+                )?;
                 Ok(GarmentMesh {
                     vertices,
                     faces: Arc::clone(&self.faces),
@@ -727,38 +713,74 @@ impl Predictor {
         )
     }
 
-    /// Garment vertices from denormalised displacements (metres, the model's frame), for all
-    /// vertices or the subset `vertices` (then `fitting[3i..3i+3]` belongs to `vertices[i]`).
+    /// Garment vertices at `pose` from denormalised displacements `own` (fitting, local;
+    /// metres, the model's frame), for all vertices or the subset `vertices` (then
+    /// `fitting[3i..3i+3]` belongs to `vertices[i]`). With `mirrored`, the nets'
+    /// displacements at the mirrored pose (of the subset's twins, in the subset's order, or of
+    /// every vertex), and mirror averaging on, each vertex's world displacement is the mean of
+    /// its own and the mirror image of its twin's there ([`Predictor::with_mirror_averaging`]).
     pub(crate) fn assemble(
         &self,
         pose: &Pose,
-        fitting: &[Real],
-        local: Option<&[Real]>,
+        own: (&[Real], Option<&[Real]>),
+        mirrored: Option<(&[Real], Option<&[Real]>)>,
         vertices: Option<&[usize]>,
         what: &str,
     ) -> Result<Vec<Vec3>> {
         let transforms: [Iso3; JOINT_COUNT] = self.skeleton.skinning_transforms(pose);
+        let mut d = self.world_displacements(&transforms, own, vertices, what)?;
+        if let (Some(twins), Some(mirrored)) = (self.averaging_twins(), mirrored) {
+            let at = self.skeleton.skinning_transforms(&pose.mirrored());
+            let twin_ids: Option<Vec<usize>> =
+                vertices.map(|s| s.iter().map(|&v| twins[v] as usize).collect());
+            let what = format!("{what}, at the mirrored pose");
+            let e = self.world_displacements(&at, mirrored, twin_ids.as_deref(), &what)?;
+            for (k, dk) in d.iter_mut().enumerate() {
+                let ek = if vertices.is_some() {
+                    e[k]
+                } else {
+                    e[twins[k] as usize]
+                };
+                *dk = 0.5 * (*dk + Vec3::new(-ek.x, ek.y, ek.z));
+            }
+        }
+        Ok(d.into_iter()
+            .enumerate()
+            .map(|(k, dk)| self.anchors[vertices.map_or(k, |s| s[k])].posed_point(&transforms) + dk)
+            .collect())
+    }
+
+    /// World-frame displacements (metres) from the nets' denormalised ones at the pose with
+    /// skinning `transforms`, as [`Predictor::assemble`] reads them.
+    ///
+    /// # Errors
+    /// [`Error::NonFiniteOutput`] naming `what` and the first vertex that is not finite.
+    fn world_displacements(
+        &self,
+        transforms: &[Iso3; JOINT_COUNT],
+        (fitting, local): (&[Real], Option<&[Real]>),
+        vertices: Option<&[usize]>,
+        what: &str,
+    ) -> Result<Vec<Vec3>> {
         let frame = self.model.displacement_frame();
         let count = vertices.map_or(self.vertex_count(), <[usize]>::len);
         let mut out = Vec::with_capacity(count);
         for i in 0..count {
             let v = vertices.map_or(i, |s| s[i]);
-            let anchor = &self.anchors[v];
             let mut d = Vec3::new(fitting[3 * i], fitting[3 * i + 1], fitting[3 * i + 2]);
             if let Some(l) = local {
                 d += Vec3::new(l[3 * i], l[3 * i + 1], l[3 * i + 2]);
             }
             if frame == DisplacementFrame::Canonical {
-                d = anchor.from_frame(&d, frame, &transforms);
+                d = self.anchors[v].from_frame(&d, frame, transforms);
             }
-            let p = anchor.posed_point(&transforms) + d;
-            if !p.iter().all(|c| c.is_finite()) {
+            if !d.iter().all(|c| c.is_finite()) {
                 return Err(Error::NonFiniteOutput {
                     what: what.to_owned(),
                     vertex: v,
                 });
             }
-            out.push(p);
+            out.push(d);
         }
         Ok(out)
     }

@@ -84,8 +84,8 @@ struct Slot {
 struct SubsetHeads {
     /// For the subset itself.
     own: (OutputHead, OutputHead),
-    /// With mirror averaging: for the subset's mirror twins, and those twins' ids.
-    twins: Option<((OutputHead, OutputHead), Vec<usize>)>,
+    /// With mirror averaging: for the subset's mirror twins, in the subset's order.
+    twins: Option<(OutputHead, OutputHead)>,
 }
 
 /// A set of characters sharing one garment model.
@@ -274,10 +274,9 @@ impl Scene {
                 // is looked up.
                 let own = heads_of(v)?;
                 let twins = match twins {
-                    Some(t) => {
-                        let ids: Vec<usize> = v.iter().map(|&i| t[i] as usize).collect();
-                        Some((heads_of(&ids)?, ids))
-                    }
+                    Some(t) => Some(heads_of(
+                        &v.iter().map(|&i| t[i] as usize).collect::<Vec<_>>(),
+                    )?),
                     None => None,
                 };
                 slot.heads = Some(SubsetHeads { own, twins });
@@ -287,10 +286,8 @@ impl Scene {
         let characters: Vec<&Character> = ids.iter().map(|id| &self.slots[id].character).collect();
         let b = characters.len();
         // With mirror averaging, rows b..2b are the mirrored poses.
-        let mirrored: Vec<Pose> = match twins {
-            Some(_) => characters.iter().map(|c| c.pose.mirrored()).collect(),
-            None => Vec::new(),
-        };
+        let poses: Vec<&Pose> = characters.iter().map(|c| &c.pose).collect();
+        let mirrored = predictor.mirrored_poses(&poses);
         let rows: Vec<_> = characters
             .iter()
             .map(|c| (&c.pose, &c.material))
@@ -346,7 +343,7 @@ impl Scene {
                 let (fit_head, loc_head) = if r < b {
                     &heads.own
                 } else {
-                    &heads.twins.as_ref().expect("twin heads were built above").0
+                    heads.twins.as_ref().expect("twin heads were built above")
                 };
                 let head = if is_fitting { fit_head } else { loc_head };
                 let out = to_f32(net.forward_head(select_rows(&hidden, &[r], &device), head));
@@ -360,33 +357,15 @@ impl Scene {
             let local = displacements.get(1).map(|d| d[r].as_slice());
             let subset = c.vertices.as_deref();
             let what = format!("character {}", ids[r]);
-            let mut vertices =
-                predictor.assemble(&c.pose, &displacements[0][r], local, subset, &what)?;
-            if let Some(twins) = twins {
-                let twin_ids = self.slots[&ids[r]]
-                    .heads
-                    .as_ref()
-                    .and_then(|h| h.twins.as_ref())
-                    .map(|(_, ids)| ids.as_slice());
-                let other = predictor.assemble(
-                    &mirrored[r],
-                    &displacements[0][b + r],
+            // A mirrored row holds the subset's twins, in the subset's order.
+            let other = (!mirrored.is_empty()).then(|| {
+                (
+                    displacements[0][b + r].as_slice(),
                     displacements.get(1).map(|d| d[b + r].as_slice()),
-                    twin_ids,
-                    &format!("{what}, at the mirrored pose"),
-                )?;
-                match subset {
-                    // `other` holds the twins of the subset, in the subset's order.
-                    Some(_) => {
-                        predictor
-                            .fold_mirrored(twins, &c.pose, &mut vertices, subset, |k, _| other[k])
-                    }
-                    None => {
-                        predictor
-                            .fold_mirrored(twins, &c.pose, &mut vertices, None, |_, t| other[t]);
-                    }
-                }
-            }
+                )
+            });
+            let mut vertices =
+                predictor.assemble(&c.pose, (&displacements[0][r], local), other, subset, &what)?;
             // Each vertex is pushed out on its own, so a subset gets what the full
             // prediction gives those vertices.
             predictor.push_out_vertices(&mut vertices, &c.pose);

@@ -123,6 +123,32 @@ impl MirrorMap {
         Ok(Self { twins })
     }
 
+    /// The mirror map a template lists itself ([`Garment::mirror_twins`]: `twins[i]` is
+    /// vertex `i`'s twin), without searching its rest positions.
+    ///
+    /// # Errors
+    /// [`Error::NotMirrorSymmetric`] naming the first vertex whose twin is past the vertices
+    /// or does not pair back; [`CoreError::Empty`] for no twins.
+    pub fn from_twins(twins: &[u32]) -> Result<Self> {
+        if twins.is_empty() {
+            return Err(CoreError::Empty {
+                what: "a mirror map".into(),
+                item: "vertex",
+            }
+            .into());
+        }
+        let twins: Vec<usize> = twins.iter().map(|&t| t as usize).collect();
+        if let Some(vertex) =
+            (0..twins.len()).find(|&i| twins.get(twins[i]).is_none_or(|&back| back != i))
+        {
+            return Err(Error::NotMirrorSymmetric {
+                vertex,
+                nearest_twin_m: 0.0,
+            });
+        }
+        Ok(Self { twins })
+    }
+
     /// The mirror map of `garment`'s rest mesh.
     ///
     /// # Errors
@@ -214,6 +240,9 @@ mod tests {
             assert_eq!(map.twin(map.twin(i)), i);
         }
         assert!(map.asymmetry(rest).unwrap() < 1e-15);
+        // The twins a template lists give the same map.
+        let twins: Vec<u32> = (0..map.len()).map(|i| map.twin(i) as u32).collect();
+        assert_eq!(MirrorMap::from_twins(&twins).unwrap(), map);
     }
 
     #[test]
@@ -243,6 +272,14 @@ mod tests {
             MirrorMap::new(&[]),
             Err(Error::Core(CoreError::Empty { item: "vertex", .. }))
         ));
+        // Listed twins that do not pair back, or point past the vertices.
+        for bad in [&[1u32, 1][..], &[0, 2]] {
+            assert!(matches!(
+                MirrorMap::from_twins(bad),
+                Err(Error::NotMirrorSymmetric { .. })
+            ));
+        }
+        assert!(MirrorMap::from_twins(&[]).is_err());
         let map = MirrorMap::new(&[Vec3::zeros()]).unwrap();
         assert!(map.asymmetry(&[]).is_err());
         assert!(map.asymmetry(&[Vec3::new(Real::NAN, 0.0, 0.0)]).is_err());

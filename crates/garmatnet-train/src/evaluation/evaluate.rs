@@ -8,8 +8,8 @@ use std::time::Instant;
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
 use garmatnet_model::material_range::{TrainingFabric, nearest};
-use garmatnet_model::{Detail, GarMatNetModel, Predictor, push_out, select_device};
-use garmatnet_sim::MaterialEntry;
+use garmatnet_model::{Detail, GarMatNetModel, push_out, select_device};
+use garmatnet_sim::{MaterialEntry, MirrorMap};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
@@ -19,7 +19,7 @@ use crate::evaluation::fabric_reference::{fabric_lookup, material_support};
 use crate::evaluation::physical_quality::QualityAccumulator;
 use crate::evaluation::prediction_errors::{
     Mirror, VertexErrors, error_stats, load_model, load_with_same_test, mirror_of,
-    predict_baseline, predict_garmatnet, vertex_errors,
+    predict_baseline, predict_garmatnet, predictor_for, vertex_errors,
 };
 use crate::evaluation::report::{
     ErrorStats, FrameComparison, HeldOutReport, HeldOutSet, MaterialErrors, MirrorSymmetry,
@@ -47,7 +47,7 @@ pub struct EvalConfig {
     #[serde(default)]
     pub newton_samples: usize,
     /// Mirror-average every prediction, GarMatNet's and the baseline's, as
-    /// [`Predictor::with_mirror_averaging`] does (on by default, as in the predictor; the
+    /// [`garmatnet_model::Predictor::with_mirror_averaging`] does (on by default, as in the predictor; the
     /// report records it).
     pub mirror_averaging: bool,
 }
@@ -363,6 +363,7 @@ fn held_out_set(
     let set = TrainingDataset::open(dir, true)?;
     model.ensure_template(set.template_hash(), set.vertex_count())?;
     let mirror = mirror_of(&set, config.mirror_averaging);
+    let mirror_map = MirrorMap::from_twins(set.garment().mirror_twins()).ok();
     let mut symmetry = SymmetryAccumulator::default();
     let seen: Vec<bool> = set
         .spec()
@@ -388,9 +389,8 @@ fn held_out_set(
             let pose = &set.spec().poses[key.pose];
             let posed = set.body().pose(pose);
             let mut garment = assemble(&truth.body_points, &pred);
-            if pose.mirrored() == *pose {
-                let twins = set.garment().mirror_twins();
-                symmetry.add(twins, &garment, &truth.simulated);
+            if let Some(map) = mirror_map.as_ref().filter(|_| pose.mirrored() == *pose) {
+                symmetry.add(map, &garment, &truth.simulated);
             }
             quality.add(key.material, &posed, &garment, &truth.simulated)?;
             if polish_every.is_some_and(|every| (chunk * 64 + i) % every == 0) {
@@ -454,24 +454,17 @@ struct SymmetryAccumulator {
 }
 
 impl SymmetryAccumulator {
-    fn add(&mut self, twins: &[u32], prediction: &[Vec3], truth: &[Vec3]) {
-        let asymmetry_mm = |x: &[Vec3]| {
-            let total: f64 = x
-                .iter()
-                .zip(twins)
-                .map(|(p, &t)| {
-                    let q = x[t as usize];
-                    (p - Vec3::new(-q.x, q.y, q.z)).norm()
-                })
-                .sum();
-            1e3 * total / x.len().max(1) as f64
+    /// Adds one sample's prediction and truth (a garment that is not finite is skipped).
+    fn add(&mut self, map: &MirrorMap, prediction: &[Vec3], truth: &[Vec3]) {
+        let (Ok(p), Ok(t)) = (map.asymmetry(prediction), map.asymmetry(truth)) else {
+            return;
         };
-        let add = |(sum, max): &mut (f64, f64), v: f64| {
-            *sum += v;
-            *max = max.max(v);
+        let add = |(sum, max): &mut (f64, f64), metres: f64| {
+            *sum += 1e3 * metres;
+            *max = max.max(1e3 * metres);
         };
-        add(&mut self.prediction, asymmetry_mm(prediction));
-        add(&mut self.truth, asymmetry_mm(truth));
+        add(&mut self.prediction, p);
+        add(&mut self.truth, t);
         self.samples += 1;
     }
 
@@ -655,20 +648,9 @@ fn time_inference(
     device: &Device,
     config: &EvalConfig,
 ) -> Result<Timing> {
-    let predictor = Predictor::new(
-        model.clone(),
-        data.garment().rest.faces.clone(),
-        data.garment().anchors.clone(),
-        data.template_hash(),
-        data.skeleton().clone(),
-        device,
-    )?;
     // Timed as the predictor runs by default: with mirror averaging, twice the poses.
-    let predictor = if config.mirror_averaging {
-        predictor.with_mirror_twins(data.garment().mirror_twins())?
-    } else {
-        predictor
-    };
+    let mirror = mirror_of(data, config.mirror_averaging);
+    let predictor = predictor_for(model, data, device, mirror)?;
     let items: Vec<_> = test
         .iter()
         .take(config.timing_batch.max(1))
@@ -1289,7 +1271,7 @@ mod tests {
     #[test]
     fn mirror_asymmetry_is_zero_for_a_mirror_image_and_twice_a_sideways_shift() {
         // Two vertices, each other's twin, mirror images of each other.
-        let twins = [1u32, 0];
+        let twins = MirrorMap::from_twins(&[1, 0]).unwrap();
         let symmetric = [Vec3::new(-0.1, 1.0, 0.05), Vec3::new(0.1, 1.0, 0.05)];
         let shifted: Vec<Vec3> = symmetric
             .iter()

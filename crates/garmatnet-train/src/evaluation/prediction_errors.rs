@@ -5,7 +5,7 @@ use std::path::Path;
 
 use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, MATERIAL_DIM, POSE_DIM, Vec3, decompose};
-use garmatnet_model::{GarMatNetModel, OutputNormalizer};
+use garmatnet_model::{GarMatNetModel, OutputNormalizer, Predictor};
 
 use crate::data::files::split_path;
 use crate::data::loader::{SampleKey, SampleTruth, TrainingDataset};
@@ -172,6 +172,28 @@ pub(crate) fn mirror_of(data: &TrainingDataset, on: bool) -> Mirror<'_> {
     on.then(|| data.garment().mirror_twins())
 }
 
+/// A predictor (no body, so no push-out) for `model` on `data`'s template, mirror-averaging
+/// when `mirror` holds twins, as eval's own predictions do.
+pub(crate) fn predictor_for(
+    model: &GarMatNetModel,
+    data: &TrainingDataset,
+    device: &Device,
+    mirror: Mirror<'_>,
+) -> Result<Predictor> {
+    let predictor = Predictor::new(
+        model.clone(),
+        data.garment().rest.faces.clone(),
+        data.garment().anchors.clone(),
+        data.template_hash(),
+        data.skeleton().clone(),
+        device,
+    )?;
+    Ok(match mirror {
+        Some(twins) => predictor.with_mirror_twins(twins)?,
+        None => predictor,
+    })
+}
+
 /// GarMatNet's predictions of `keys`, mirror-averaged when `mirror` holds twins.
 pub(crate) fn predict_garmatnet(
     model: &GarMatNetModel,
@@ -297,7 +319,7 @@ mod tests {
     use super::*;
     use crate::test_util::synthetic_dataset;
     use garmatnet_core::TemplateInfo;
-    use garmatnet_model::{Detail, GarMatNetConfig, Predictor, select_device};
+    use garmatnet_model::{Detail, GarMatNetConfig, select_device};
 
     #[test]
     fn eval_averages_the_mirror_as_the_predictor_does() {
@@ -312,17 +334,7 @@ mod tests {
             config.displacement_frame = frame;
             let model =
                 GarMatNetModel::untrained(&config, TemplateInfo::of(data.garment()), &device);
-            let predictor = Predictor::new(
-                model.clone(),
-                data.garment().rest.faces.clone(),
-                data.garment().anchors.clone(),
-                data.template_hash(),
-                data.skeleton().clone(),
-                &device,
-            )
-            .unwrap()
-            .with_mirror_twins(data.garment().mirror_twins())
-            .unwrap();
+            let predictor = predictor_for(&model, &data, &device, mirror_of(&data, true)).unwrap();
             let averaged = predict_garmatnet(&model, &data, &keys, &device, mirror_of(&data, true));
             let raw = predict_garmatnet(&model, &data, &keys, &device, mirror_of(&data, false));
             let (averaged, raw) = (averaged.unwrap(), raw.unwrap());

@@ -274,19 +274,12 @@ impl HeldOutReport {
     /// # Errors
     /// [`Error::Core`] (I/O) if a file cannot be written.
     pub fn write(&self, out_dir: &Path) -> Result<()> {
-        let json = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
-            what: "the held-out report",
-            source,
-        })?;
-        garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
-        garmatnet_core::write_bytes_atomic(
-            out_dir.join("report.md"),
-            self.to_markdown().as_bytes(),
-        )?;
-        for f in ["report.json", "report.md"] {
-            make_readable(&out_dir.join(f));
-        }
-        Ok(())
+        write_report(
+            out_dir,
+            ("the held-out report", self),
+            &self.to_markdown(),
+            &[],
+        )
     }
 }
 
@@ -408,25 +401,35 @@ impl Report {
     /// # Errors
     /// [`Error::Core`] (I/O) if a file cannot be written.
     pub fn write(&self, out_dir: &Path) -> Result<()> {
-        let json = serde_json::to_vec_pretty(self).map_err(|source| Error::Serialize {
-            what: "the report",
-            source,
-        })?;
-        garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
-        garmatnet_core::write_bytes_atomic(
-            out_dir.join("report.md"),
-            self.to_markdown().as_bytes(),
-        )?;
-        for f in self
-            .files
-            .iter()
-            .map(String::as_str)
-            .chain(["report.json", "report.md"])
-        {
-            make_readable(&out_dir.join(f));
-        }
-        Ok(())
+        write_report(
+            out_dir,
+            ("the report", self),
+            &self.to_markdown(),
+            &self.files,
+        )
     }
+}
+
+/// Writes `report` as `report.json` and `markdown` as `report.md` into `out_dir`,
+/// atomically, and makes them and the `files` written beside them readable to all.
+fn write_report(
+    out_dir: &Path,
+    (what, report): (&'static str, &impl Serialize),
+    markdown: &str,
+    files: &[String],
+) -> Result<()> {
+    let json =
+        serde_json::to_vec_pretty(report).map_err(|source| Error::Serialize { what, source })?;
+    garmatnet_core::write_bytes_atomic(out_dir.join("report.json"), &json)?;
+    garmatnet_core::write_bytes_atomic(out_dir.join("report.md"), markdown.as_bytes())?;
+    for f in files
+        .iter()
+        .map(String::as_str)
+        .chain(["report.json", "report.md"])
+    {
+        make_readable(&out_dir.join(f));
+    }
+    Ok(())
 }
 
 /// Mean, max and 95th percentile of per-vertex errors (metres in, millimetres out).
