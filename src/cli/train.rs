@@ -116,6 +116,11 @@ pub struct TrainOptions {
     /// Train on an incomplete dataset (missing samples are skipped).
     #[arg(long)]
     pub allow_incomplete: bool,
+    /// Train on each training sample's mirror image too (the mirrored drape at the mirrored
+    /// pose): twice the training rows at no solver cost, and nets that learn the left-right
+    /// symmetry that mirror averaging otherwise imposes after the fact.
+    #[arg(long)]
+    pub mirrored_samples: bool,
     /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
     /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     #[arg(long)]
@@ -228,6 +233,7 @@ impl TrainOptions {
             c.split.max_train_residual = Some(r);
         }
         c.allow_incomplete_dataset |= self.allow_incomplete;
+        c.mirrored_samples |= self.mirrored_samples;
         c.quiet |= self.quiet;
         Ok(c)
     }

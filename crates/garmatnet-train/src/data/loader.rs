@@ -63,6 +63,9 @@ pub struct SampleTruth {
 
 /// Preloaded inputs and labels of a set of samples.
 ///
+/// A row is a sample as draped, or its mirror image ([`TrainingDataset::load_mirrored`]):
+/// `keys[r]` names the sample either way, and `mirrored[r]` says which.
+///
 /// # Shapes
 /// `poses`: `[S, 72]`; `materials`: `[S, 6]`; `d_fitting`, `d_local`: `[S, 3n]`, all
 /// row-major, labels in metres in [`LoadedSamples::frame`].
@@ -70,6 +73,8 @@ pub struct SampleTruth {
 pub struct LoadedSamples {
     /// The samples, in row order.
     pub keys: Vec<SampleKey>,
+    /// Per row, whether it is its sample's mirror image (at the mirrored pose).
+    pub mirrored: Vec<bool>,
     /// The garment vertex count n.
     pub vertex_count: usize,
     /// The frame of the labels.
@@ -95,6 +100,27 @@ impl LoadedSamples {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.keys.is_empty()
+    }
+
+    /// Appends `other`'s rows after this set's.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] when the two sets have other vertex counts or frames.
+    pub fn append(&mut self, other: LoadedSamples) -> Result<()> {
+        if other.vertex_count != self.vertex_count || other.frame != self.frame {
+            return Err(Error::InvalidConfig(format!(
+                "cannot join samples of {} vertices in the {:?} frame to samples of {} vertices \
+                 in the {:?} frame",
+                other.vertex_count, other.frame, self.vertex_count, self.frame
+            )));
+        }
+        self.keys.extend(other.keys);
+        self.mirrored.extend(other.mirrored);
+        self.poses.extend(other.poses);
+        self.materials.extend(other.materials);
+        self.d_fitting.extend(other.d_fitting);
+        self.d_local.extend(other.d_local);
+        Ok(())
     }
 }
 
@@ -308,9 +334,42 @@ impl TrainingDataset {
     /// # Errors
     /// As [`TrainingDataset::truth`], naming the first bad sample.
     pub fn load(&self, keys: &[SampleKey], frame: DisplacementFrame) -> Result<LoadedSamples> {
+        self.load_rows(keys, frame, false)
+    }
+
+    /// Preloads the mirror images of `keys`' samples: each at the mirrored pose
+    /// ([`Pose::mirrored`](garmatnet_core::Pose::mirrored)) with the mirrored drape, vertex
+    /// `i` taking the reflection (x → −x) of its mirror twin's displacements
+    /// ([`Garment::mirror_twins`]), the labels expressed in `frame` at the mirrored pose.
+    ///
+    /// The body and the template are mirror-symmetric as they are built, so this is the
+    /// sample the solver would drape at the mirrored pose, up to the body mesh's own
+    /// asymmetry (0.2 mm on average) and the solver's choice at a buckle: training samples
+    /// for free, which give the nets the left-right symmetry that
+    /// [`Predictor::with_mirror_averaging`](garmatnet_model::Predictor::with_mirror_averaging)
+    /// otherwise imposes after the fact.
+    ///
+    /// # Errors
+    /// As [`TrainingDataset::load`].
+    pub fn load_mirrored(
+        &self,
+        keys: &[SampleKey],
+        frame: DisplacementFrame,
+    ) -> Result<LoadedSamples> {
+        self.load_rows(keys, frame, true)
+    }
+
+    /// [`TrainingDataset::load`] or, `mirrored`, [`TrainingDataset::load_mirrored`].
+    fn load_rows(
+        &self,
+        keys: &[SampleKey],
+        frame: DisplacementFrame,
+        mirrored: bool,
+    ) -> Result<LoadedSamples> {
         let n3 = 3 * self.vertex_count();
         let mut out = LoadedSamples {
             keys: keys.to_vec(),
+            mirrored: vec![mirrored; keys.len()],
             vertex_count: self.vertex_count(),
             frame,
             poses: Vec::with_capacity(keys.len() * POSE_DIM),
@@ -318,24 +377,41 @@ impl TrainingDataset {
             d_fitting: Vec::with_capacity(keys.len() * n3),
             d_local: Vec::with_capacity(keys.len() * n3),
         };
+        let twins = self.garment.mirror_twins();
+        let flat = |field: Vec<Vec3>| {
+            field
+                .into_iter()
+                .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
+        };
         for &key in keys {
             let truth = self.truth(key)?;
             let parts = decompose(&truth.simulated, &truth.smoothed, &truth.body_points)?;
             let anchors = &self.garment.anchors;
-            let fit = field_to_frame(&parts.d_fitting, anchors, frame, &truth.transforms)?;
-            let local = field_to_frame(&parts.d_local, anchors, frame, &truth.transforms)?;
-            let (pose, material) = self.inputs(key);
-            out.poses.extend(pose);
-            out.materials.extend(material);
-            out.d_fitting.extend(
-                fit.iter()
-                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
-            );
-            out.d_local.extend(
-                local
-                    .iter()
-                    .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32]),
-            );
+            let (pose, transforms, d_fitting, d_local) = if mirrored {
+                let pose = self.spec().poses[key.pose].mirrored();
+                let transforms = self.skeleton().skinning_transforms(&pose);
+                let reflect = |field: &[Vec3]| -> Vec<Vec3> {
+                    twins
+                        .iter()
+                        .map(|&t| {
+                            let d = field[t as usize];
+                            Vec3::new(-d.x, d.y, d.z)
+                        })
+                        .collect()
+                };
+                let (f, l) = (reflect(&parts.d_fitting), reflect(&parts.d_local));
+                (pose, transforms, f, l)
+            } else {
+                let pose = self.spec().poses[key.pose].clone();
+                (pose, truth.transforms, parts.d_fitting, parts.d_local)
+            };
+            let fit = field_to_frame(&d_fitting, anchors, frame, &transforms)?;
+            let local = field_to_frame(&d_local, anchors, frame, &transforms)?;
+            out.poses.extend(pose.to_vec().iter().map(|&v| v as f32));
+            out.materials
+                .extend(self.spec().materials[key.material].omega_normalized.map(|v| v as f32));
+            out.d_fitting.extend(flat(fit));
+            out.d_local.extend(flat(local));
         }
         Ok(out)
     }
@@ -431,5 +507,72 @@ mod tests {
         std::fs::write(&manifest, text.replace(&hash, "0123456789abcdef")).unwrap();
         let err = TrainingDataset::open(&data, true).unwrap_err();
         assert!(err.to_string().contains("regenerate the dataset"), "{err}");
+    }
+
+    #[test]
+    fn mirrored_rows_are_the_mirror_image_of_the_drape_at_the_mirrored_pose() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 2, 3);
+        let set = TrainingDataset::open(&data, false).unwrap();
+        let keys = set.keys();
+        let twins = set.garment().mirror_twins();
+        let reflect = |v: Vec3| Vec3::new(-v.x, v.y, v.z);
+        let smoother = garmatnet_core::LaplacianSmoother::new(
+            &set.garment().rest,
+            garmatnet_core::SmoothingSettings::default(),
+        )
+        .unwrap();
+        for frame in [DisplacementFrame::World, DisplacementFrame::Canonical] {
+            let mut rows = set.load(&keys, frame).unwrap();
+            let mirrored = set.load_mirrored(&keys, frame).unwrap();
+            assert_eq!(mirrored.keys, keys);
+            assert!(mirrored.mirrored.iter().all(|&m| m));
+            rows.append(mirrored).unwrap();
+            assert_eq!(rows.len(), 2 * keys.len());
+            assert_eq!(rows.mirrored.iter().filter(|&&m| m).count(), keys.len());
+            for (r, &key) in keys.iter().enumerate() {
+                let row = keys.len() + r;
+                let pose = set.spec().poses[key.pose].mirrored();
+                let theta: Vec<f32> = pose.to_vec().iter().map(|&v| v as f32).collect();
+                assert_eq!(rows.poses[row * POSE_DIM..(row + 1) * POSE_DIM], theta[..]);
+                assert_eq!(
+                    rows.materials[row * MATERIAL_DIM..(row + 1) * MATERIAL_DIM],
+                    rows.materials[r * MATERIAL_DIM..(r + 1) * MATERIAL_DIM]
+                );
+                // The row's labels, read back at the mirrored pose, rebuild the reflected
+                // drape with each vertex at its twin's place, up to the body's own asymmetry.
+                let truth = set.truth(key).unwrap();
+                let transforms = set.skeleton().skinning_transforms(&pose);
+                let body = set.garment().body_points(&transforms);
+                let n = set.vertex_count();
+                let (mut sum, mut worst) = (0.0, 0.0_f64);
+                for i in 0..n {
+                    let at = |v: &[f32]| {
+                        let o = row * 3 * n + 3 * i;
+                        Vec3::new(f64::from(v[o]), f64::from(v[o + 1]), f64::from(v[o + 2]))
+                    };
+                    let d = set.garment().anchors[i].from_frame(
+                        &(at(&rows.d_fitting) + at(&rows.d_local)),
+                        frame,
+                        &transforms,
+                    );
+                    let err = (body[i] + d - reflect(truth.simulated[twins[i] as usize])).norm();
+                    sum += err;
+                    worst = worst.max(err);
+                }
+                assert!(sum / n as f64 <= 1e-3 && worst <= 5e-3, "{sum} {worst}");
+            }
+        }
+        // The split into smooth garment and wrinkles commutes with the mirror, so the
+        // reflected labels are the decomposition of the reflected drape.
+        let truth = set.truth(keys[1]).unwrap();
+        let mirror = |field: &[Vec3]| -> Vec<Vec3> {
+            twins.iter().map(|&t| reflect(field[t as usize])).collect()
+        };
+        let smoothed = smoother.smooth(&mirror(&truth.simulated)).unwrap();
+        for (a, b) in smoothed.iter().zip(mirror(&truth.smoothed)) {
+            assert!((a - b).norm() < 1e-5, "{a} {b}");
+        }
     }
 }

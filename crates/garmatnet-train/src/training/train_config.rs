@@ -69,6 +69,13 @@ pub struct TrainConfig {
     pub split: SplitConfig,
     /// Accept a dataset with missing samples (train on what exists).
     pub allow_incomplete_dataset: bool,
+    /// Train on each training sample's mirror image too, at the mirrored pose
+    /// ([`TrainingDataset::load_mirrored`](crate::TrainingDataset::load_mirrored)): twice
+    /// the training rows at no solver cost. Off by default; not written while off, so a
+    /// default run's fingerprint, and the checkpoints of runs begun before the option, stay
+    /// valid.
+    #[serde(skip_serializing_if = "is_false")]
+    pub mirrored_samples: bool,
     /// Hybrid physics-informed training (issue 49): the locally-detailed net's loss adds
     /// `physics.weight` times the normalised drape energy of the full prediction at
     /// (pose, fabric) pairs drawn every step ([`PhysicsConfig`]). Off by default; not
@@ -107,6 +114,7 @@ impl Default for TrainConfig {
             displacement_frame: DisplacementFrame::Canonical,
             split: SplitConfig::default(),
             allow_incomplete_dataset: false,
+            mirrored_samples: false,
             physics: PhysicsConfig::default(),
             device: "cpu".into(),
             quiet: false,
@@ -263,6 +271,12 @@ pub(crate) fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
+/// Serde's test for flags left out of files while off.
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's `skip_serializing_if` passes `&T`
+pub(crate) fn is_false(x: &bool) -> bool {
+    !*x
+}
+
 /// The files the trainer derives from a model path `{stem}.{ext}`, as `(suffix, what)`:
 /// each is written at `{stem}.{suffix}` next to the model.
 const MODEL_SIBLINGS: [(&str, &str); 3] = [
@@ -329,6 +343,15 @@ mod tests {
         assert!(json["split"].get("max_train_residual").is_none(), "{json}");
         assert!(json.get("weight_decay").is_none(), "{json}");
         assert!(json.get("physics").is_none(), "{json}");
+        assert!(json.get("mirrored_samples").is_none(), "{json}");
+        let mirrored = TrainConfig {
+            mirrored_samples: true,
+            ..TrainConfig::default()
+        };
+        assert_ne!(mirrored.fingerprint("d"), TrainConfig::default().fingerprint("d"));
+        let back: TrainConfig =
+            serde_json::from_value(serde_json::to_value(&mirrored).unwrap()).unwrap();
+        assert_eq!(back, mirrored);
         let base = TrainConfig::default().fingerprint("d");
         let cosine = TrainConfig {
             learning_rate_schedule: LearningRateSchedule::Cosine,

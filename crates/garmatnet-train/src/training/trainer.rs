@@ -148,7 +148,10 @@ pub fn train(
     let net_config = config.net_config(n);
     net_config.validate()?;
     let frame = config.displacement_frame;
-    let train_set = data.load(&split.train, frame)?;
+    let mut train_set = data.load(&split.train, frame)?;
+    if config.mirrored_samples {
+        train_set.append(data.load_mirrored(&split.train, frame)?)?;
+    }
     let dev_set = data.load(&split.dev, frame)?;
     let fitting_norm = fit_normalizer(&train_set.d_fitting, 3 * n)?;
     let local_norm = fit_normalizer(&train_set.d_local, 3 * n)?;
@@ -501,6 +504,29 @@ pub(crate) mod tests {
         // 4 non-target materials x 18 non-held-out poses, split 90/10.
         assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
         assert_eq!(s.samples[2], 6 * 20 - 4 * 18);
+    }
+
+    #[test]
+    fn mirrored_samples_train_and_are_recorded() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let model_path = dir.path().join("mirrored.safetensors");
+        let config = TrainConfig {
+            mirrored_samples: true,
+            ..tiny_config(25)
+        };
+        let s = train(&data, &model_path, &config, &RunOptions::default()).unwrap();
+        assert!(s.finished);
+        assert_both_nets_learned(&s);
+        // The split counts samples; the mirror images are extra training rows.
+        assert_eq!(s.samples[0] + s.samples[1], 4 * 18);
+        let model = GarMatNetModel::load(&model_path, &Device::flex()).unwrap();
+        let recorded = &model.meta.provenance.extra["train_config"];
+        assert_eq!(recorded["mirrored_samples"], serde_json::json!(true));
+        let back: TrainConfig = serde_json::from_value(recorded.clone()).unwrap();
+        assert!(back.same_run(&config));
     }
 
     /// The sum of the squares of every float parameter of `module`.
