@@ -408,8 +408,11 @@ impl TrainingDataset {
             let fit = field_to_frame(&d_fitting, anchors, frame, &transforms)?;
             let local = field_to_frame(&d_local, anchors, frame, &transforms)?;
             out.poses.extend(pose.to_vec().iter().map(|&v| v as f32));
-            out.materials
-                .extend(self.spec().materials[key.material].omega_normalized.map(|v| v as f32));
+            out.materials.extend(
+                self.spec().materials[key.material]
+                    .omega_normalized
+                    .map(|v| v as f32),
+            );
             out.d_fitting.extend(flat(fit));
             out.d_local.extend(flat(local));
         }

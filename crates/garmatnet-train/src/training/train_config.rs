@@ -348,7 +348,10 @@ mod tests {
             mirrored_samples: true,
             ..TrainConfig::default()
         };
-        assert_ne!(mirrored.fingerprint("d"), TrainConfig::default().fingerprint("d"));
+        assert_ne!(
+            mirrored.fingerprint("d"),
+            TrainConfig::default().fingerprint("d")
+        );
         let back: TrainConfig =
             serde_json::from_value(serde_json::to_value(&mirrored).unwrap()).unwrap();
         assert_eq!(back, mirrored);
