@@ -178,6 +178,27 @@ impl MirrorMap {
         self.twins.is_empty()
     }
 
+    /// The mirror image of a per-vertex field (positions or displacements): vertex `i` takes
+    /// `mirror(field[twin(i)])`. A drape at a pose mirrored to the field's gives this field.
+    ///
+    /// # Errors
+    /// [`CoreError::WrongLength`] unless there is one value per template vertex.
+    pub fn mirrored(&self, field: &[Vec3]) -> Result<Vec<Vec3>> {
+        if field.len() != self.twins.len() {
+            return Err(CoreError::WrongLength {
+                what: "a per-vertex field to mirror".into(),
+                expected: self.twins.len().to_string(),
+                got: field.len(),
+            }
+            .into());
+        }
+        Ok(self
+            .twins
+            .iter()
+            .map(|&t| mirror_point(&field[t]))
+            .collect())
+    }
+
     /// The mirror asymmetry of `positions` (metres): the mean over vertices of
     /// `|x_i - mirror(x_twin(i))|`. Zero for a drape that is its own mirror image; a drape
     /// shifted sideways by `s` reads `2 s`.
@@ -240,6 +261,16 @@ mod tests {
             assert_eq!(map.twin(map.twin(i)), i);
         }
         assert!(map.asymmetry(rest).unwrap() < 1e-15);
+        // A symmetric mesh is its own mirror image; mirroring twice gives the field back.
+        let mirrored = map.mirrored(rest).unwrap();
+        for (a, b) in mirrored.iter().zip(rest) {
+            assert!((a - b).norm() < 1e-12);
+        }
+        let field: Vec<Vec3> = (0..map.len())
+            .map(|i| Vec3::new(i as Real, 1.0, 2.0))
+            .collect();
+        assert_eq!(map.mirrored(&map.mirrored(&field).unwrap()).unwrap(), field);
+        assert!(map.mirrored(&field[1..]).is_err());
         // The twins a template lists give the same map.
         let twins: Vec<u32> = (0..map.len()).map(|i| map.twin(i) as u32).collect();
         assert_eq!(MirrorMap::from_twins(&twins).unwrap(), map);

@@ -6,10 +6,10 @@
 use std::path::Path;
 
 use garmatnet_core::{
-    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, MATERIAL_DIM, POSE_DIM, Skeleton,
-    SkinnedBody, Vec3, decompose, field_to_frame,
+    CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, MATERIAL_DIM, POSE_DIM, Pose,
+    Skeleton, SkinnedBody, Vec3, decompose, field_to_frame,
 };
-use garmatnet_sim::{DatasetReader, DatasetSpec, SampleRecord};
+use garmatnet_sim::{DatasetReader, DatasetSpec, MirrorMap, SampleRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -321,7 +321,28 @@ impl TrainingDataset {
     /// θ and normalised ω of a sample, as network inputs.
     #[must_use]
     pub fn inputs(&self, key: SampleKey) -> ([f32; POSE_DIM], [f32; MATERIAL_DIM]) {
-        let pose = self.spec().poses[key.pose].to_vec();
+        self.row_inputs(key, false)
+    }
+
+    /// The pose of `key`'s row: the sample's own or, `mirrored`, its mirror image
+    /// ([`Pose::mirrored`]).
+    pub(crate) fn row_pose(&self, key: SampleKey, mirrored: bool) -> Pose {
+        let pose = &self.spec().poses[key.pose];
+        if mirrored {
+            pose.mirrored()
+        } else {
+            pose.clone()
+        }
+    }
+
+    /// θ (of [`TrainingDataset::row_pose`]) and normalised ω of `key`'s row, as network
+    /// inputs.
+    pub(crate) fn row_inputs(
+        &self,
+        key: SampleKey,
+        mirrored: bool,
+    ) -> ([f32; POSE_DIM], [f32; MATERIAL_DIM]) {
+        let pose = self.row_pose(key, mirrored).to_vec();
         let omega = self.spec().materials[key.material].omega_normalized;
         (
             std::array::from_fn(|i| pose[i] as f32),
@@ -377,42 +398,34 @@ impl TrainingDataset {
             d_fitting: Vec::with_capacity(keys.len() * n3),
             d_local: Vec::with_capacity(keys.len() * n3),
         };
-        let twins = self.garment.mirror_twins();
+        let map = if mirrored {
+            Some(MirrorMap::from_twins(self.garment.mirror_twins())?)
+        } else {
+            None
+        };
         let flat = |field: Vec<Vec3>| {
             field
                 .into_iter()
                 .flat_map(|v| [v.x as f32, v.y as f32, v.z as f32])
         };
+        let anchors = &self.garment.anchors;
         for &key in keys {
             let truth = self.truth(key)?;
             let parts = decompose(&truth.simulated, &truth.smoothed, &truth.body_points)?;
-            let anchors = &self.garment.anchors;
-            let (pose, transforms, d_fitting, d_local) = if mirrored {
-                let pose = self.spec().poses[key.pose].mirrored();
-                let transforms = self.skeleton().skinning_transforms(&pose);
-                let reflect = |field: &[Vec3]| -> Vec<Vec3> {
-                    twins
-                        .iter()
-                        .map(|&t| {
-                            let d = field[t as usize];
-                            Vec3::new(-d.x, d.y, d.z)
-                        })
-                        .collect()
-                };
-                let (f, l) = (reflect(&parts.d_fitting), reflect(&parts.d_local));
-                (pose, transforms, f, l)
-            } else {
-                let pose = self.spec().poses[key.pose].clone();
-                (pose, truth.transforms, parts.d_fitting, parts.d_local)
+            let (transforms, d_fitting, d_local) = match &map {
+                Some(map) => (
+                    self.skeleton()
+                        .skinning_transforms(&self.row_pose(key, true)),
+                    map.mirrored(&parts.d_fitting)?,
+                    map.mirrored(&parts.d_local)?,
+                ),
+                None => (truth.transforms, parts.d_fitting, parts.d_local),
             };
             let fit = field_to_frame(&d_fitting, anchors, frame, &transforms)?;
             let local = field_to_frame(&d_local, anchors, frame, &transforms)?;
-            out.poses.extend(pose.to_vec().iter().map(|&v| v as f32));
-            out.materials.extend(
-                self.spec().materials[key.material]
-                    .omega_normalized
-                    .map(|v| v as f32),
-            );
+            let (pose, material) = self.row_inputs(key, mirrored);
+            out.poses.extend(pose);
+            out.materials.extend(material);
             out.d_fitting.extend(flat(fit));
             out.d_local.extend(flat(local));
         }
@@ -519,8 +532,7 @@ mod tests {
         synthetic_dataset(&data, 2, 3);
         let set = TrainingDataset::open(&data, false).unwrap();
         let keys = set.keys();
-        let twins = set.garment().mirror_twins();
-        let reflect = |v: Vec3| Vec3::new(-v.x, v.y, v.z);
+        let map = MirrorMap::from_twins(set.garment().mirror_twins()).unwrap();
         let smoother = garmatnet_core::LaplacianSmoother::new(
             &set.garment().rest,
             garmatnet_core::SmoothingSettings::default(),
@@ -537,6 +549,7 @@ mod tests {
             for (r, &key) in keys.iter().enumerate() {
                 let row = keys.len() + r;
                 let pose = set.spec().poses[key.pose].mirrored();
+                let drape = map.mirrored(&set.truth(key).unwrap().simulated).unwrap();
                 let theta: Vec<f32> = pose.to_vec().iter().map(|&v| v as f32).collect();
                 assert_eq!(rows.poses[row * POSE_DIM..(row + 1) * POSE_DIM], theta[..]);
                 assert_eq!(
@@ -545,7 +558,6 @@ mod tests {
                 );
                 // The row's labels, read back at the mirrored pose, rebuild the reflected
                 // drape with each vertex at its twin's place, up to the body's own asymmetry.
-                let truth = set.truth(key).unwrap();
                 let transforms = set.skeleton().skinning_transforms(&pose);
                 let body = set.garment().body_points(&transforms);
                 let n = set.vertex_count();
@@ -560,7 +572,7 @@ mod tests {
                         frame,
                         &transforms,
                     );
-                    let err = (body[i] + d - reflect(truth.simulated[twins[i] as usize])).norm();
+                    let err = (body[i] + d - drape[i]).norm();
                     sum += err;
                     worst = worst.max(err);
                 }
@@ -570,11 +582,10 @@ mod tests {
         // The split into smooth garment and wrinkles commutes with the mirror, so the
         // reflected labels are the decomposition of the reflected drape.
         let truth = set.truth(keys[1]).unwrap();
-        let mirror = |field: &[Vec3]| -> Vec<Vec3> {
-            twins.iter().map(|&t| reflect(field[t as usize])).collect()
-        };
-        let smoothed = smoother.smooth(&mirror(&truth.simulated)).unwrap();
-        for (a, b) in smoothed.iter().zip(mirror(&truth.smoothed)) {
+        let smoothed = smoother
+            .smooth(&map.mirrored(&truth.simulated).unwrap())
+            .unwrap();
+        for (a, b) in smoothed.iter().zip(map.mirrored(&truth.smoothed).unwrap()) {
             assert!((a - b).norm() < 1e-5, "{a} {b}");
         }
     }

@@ -105,13 +105,8 @@ fn input_tensors(
     let mut poses = Vec::with_capacity(keys.len() * POSE_DIM);
     let mut materials = Vec::with_capacity(keys.len() * MATERIAL_DIM);
     for &k in keys {
-        let (p, m) = data.inputs(k);
-        if mirrored {
-            let pose = data.spec().poses[k.pose].mirrored();
-            poses.extend(pose.to_vec().iter().map(|&v| v as f32));
-        } else {
-            poses.extend(p);
-        }
+        let (p, m) = data.row_inputs(k, mirrored);
+        poses.extend(p);
         materials.extend(m);
     }
     let b = keys.len();
