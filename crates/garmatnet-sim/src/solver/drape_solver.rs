@@ -93,6 +93,19 @@ pub struct DrapeStats {
     pub converged: bool,
 }
 
+impl DrapeStats {
+    /// Adds the cost of `earlier`, a drape of the same garment this one continued
+    /// (iterations, factorisations, rejected and expanded steps, wall time); the state
+    /// figures (residuals, strain, contacts, convergence) stay this drape's.
+    pub fn add_cost_of(&mut self, earlier: &DrapeStats) {
+        self.iterations += earlier.iterations;
+        self.refactorizations += earlier.refactorizations;
+        self.rejected_steps += earlier.rejected_steps;
+        self.expanded_steps += earlier.expanded_steps;
+        self.wall_time_ms += earlier.wall_time_ms;
+    }
+}
+
 /// The solver for one cloth topology: owns the Newton system's symbolic Cholesky
 /// factorisation (computed once in [`DrapeSolver::new`]); each iteration only refactors
 /// numerically.

@@ -559,11 +559,7 @@ pub fn settle_at_rest(
     let landing = solver.drape(positions, &rest, &[])?;
     solver.set_settings(settings)?;
     let mut stats = solver.drape(positions, &rest, &[])?;
-    stats.iterations += landing.iterations;
-    stats.refactorizations += landing.refactorizations;
-    stats.rejected_steps += landing.rejected_steps;
-    stats.expanded_steps += landing.expanded_steps;
-    stats.wall_time_ms += landing.wall_time_ms;
+    stats.add_cost_of(&landing);
     Ok(stats)
 }
 
