@@ -59,7 +59,7 @@ pub use solver::drape_settings::{DrapeSettings, FactorPrecision};
 pub use solver::drape_solver::{DrapeSolver, DrapeStats, force_residual};
 pub use solver::garment_drape::{
     FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
-    drape_poses, drape_sequence, settle_at_rest, surface_steps,
+    drape_poses, drape_sequence, settle_at_rest, settle_rest_drape, surface_steps,
 };
 pub use solver::grid_sheet::{SheetStiffness, grid_sheet};
 pub use solver::mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};

@@ -21,9 +21,8 @@ use crate::error::Result;
 use crate::solver::drape_settings::DrapeSettings;
 use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
 use crate::solver::garment_drape::{
-    FrameStepper, SequenceSettings, cloth_from_garment, settle_at_rest, surface_steps,
+    FrameStepper, SequenceSettings, cloth_from_garment, settle_rest_drape, surface_steps,
 };
-use crate::solver::mirror_symmetry::MirrorMap;
 
 /// How a dataset's samples are draped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -116,12 +115,9 @@ impl CanonicalDraper {
     /// Drapes `garment` of `material` on `body` at the garment's rest pose (from its rest
     /// mesh, to the residual criterion of `settings.drape`), the start of every sample.
     ///
-    /// The rest pose is left-right symmetric, so the rest drape must be too. Where the drape
-    /// from the rest mesh does not settle within the iteration cap (Spandex, the softest
-    /// preset, drifts toward the body's left meanwhile), it is restarted from its mirror
-    /// average (each vertex halfway to its [mirror twin](MirrorMap)'s mirror image) and
-    /// settled again; [`CanonicalDraper::rest_stats`] then counts both solves. A rest drape
-    /// that settles the first time is kept as it is.
+    /// The rest drape is [`settle_rest_drape`]'s: left-right symmetric, restarted from its
+    /// mirror average where the drape from the rest mesh does not settle (Spandex), and
+    /// [`CanonicalDraper::rest_stats`] then counts both solves.
     ///
     /// # Errors
     /// Settings that fail [`SequenceSettings::validate`]; as [`cloth_from_garment`] and
@@ -136,34 +132,8 @@ impl CanonicalDraper {
         let model = cloth_from_garment(garment, material)?;
         let mut solver = DrapeSolver::new(&model, &settings.drape)?;
         let rest_pose = garment.rest_pose.clone();
-        let mut rest_drape = garment.rest.vertices.clone();
-        let mut rest_stats = settle_at_rest(
-            &mut solver,
-            &settings.drape,
-            &mut rest_drape,
-            body,
-            &rest_pose,
-        )?;
-        if !rest_stats.converged && rest_pose.mirrored() == rest_pose {
-            // A drape that does not settle at a left-right symmetric rest pose can drift to
-            // one side for as long as the iteration cap lets it (Spandex: 22 mm, 59 mm of
-            // mirror asymmetry). Restart it from its mirror average and settle it again.
-            if let Ok(map) = MirrorMap::of_garment(garment) {
-                let mirrored = map.mirrored(&rest_drape)?;
-                for (p, m) in rest_drape.iter_mut().zip(&mirrored) {
-                    *p = (*p + m) * 0.5;
-                }
-                let first = rest_stats;
-                rest_stats = settle_at_rest(
-                    &mut solver,
-                    &settings.drape,
-                    &mut rest_drape,
-                    body,
-                    &rest_pose,
-                )?;
-                rest_stats.add_cost_of(&first);
-            }
-        }
+        let (mut rest_drape, rest_stats) =
+            settle_rest_drape(&mut solver, &settings.drape, garment, body)?;
         round_to_f32(&mut rest_drape);
         Ok(Self {
             solver,
@@ -270,6 +240,7 @@ mod tests {
     use garmatnet_core::{Resolution, Vec3};
 
     use super::*;
+    use crate::solver::mirror_symmetry::MirrorMap;
 
     fn raised_arm() -> Pose {
         let mut pose = Pose::zero();

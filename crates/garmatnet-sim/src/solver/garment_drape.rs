@@ -13,6 +13,7 @@ use crate::motion::generator::{MIN_STEP_RAD, equal_steps, interpolation_steps};
 use crate::solver::cloth_model::{ClothModel, SpringSpec};
 use crate::solver::drape_settings::DrapeSettings;
 use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
+use crate::solver::mirror_symmetry::MirrorMap;
 
 /// The garment as a mass-spring cloth of `material`.
 ///
@@ -472,14 +473,8 @@ pub fn drape_sequence(
     let (positions, mut current, first) = match resume {
         None => {
             // The rest mesh fits the body in the garment's rest pose: the walk starts there.
-            let mut positions = garment.rest.vertices.clone();
-            all.push(settle_at_rest(
-                &mut solver,
-                &full,
-                &mut positions,
-                body,
-                &garment.rest_pose,
-            )?);
+            let (positions, stats) = settle_rest_drape(&mut solver, &full, garment, body)?;
+            all.push(stats);
             (positions, garment.rest_pose.clone(), 0)
         }
         Some(r) => {
@@ -561,6 +556,47 @@ pub fn settle_at_rest(
     let mut stats = solver.drape(positions, &rest, &[])?;
     stats.add_cost_of(&landing);
     Ok(stats)
+}
+
+/// Drapes `garment` on `body` at its rest pose from its rest mesh ([`settle_at_rest`]) and
+/// returns the rest drape (metres) with the solver's report: the start of every canonical
+/// sample ([`CanonicalDraper`](crate::CanonicalDraper)) and of every walk
+/// ([`drape_sequence`]).
+///
+/// The garment's rest pose is left-right symmetric, so its rest drape must be too. Where the
+/// drape from the rest mesh does not settle within the iteration cap at a symmetric rest pose
+/// (Spandex, the softest preset, drifts 22 mm toward the body's left meanwhile), it is
+/// restarted from its mirror average (each vertex halfway to its [mirror twin](MirrorMap)'s
+/// mirror image) and settled again; the returned stats then count both solves
+/// ([`DrapeStats::add_cost_of`]). A rest drape that settles the first time, or a garment with
+/// no mirror map, is kept as it is.
+///
+/// # Errors
+/// As [`settle_at_rest`] and [`MirrorMap::mirrored`].
+pub fn settle_rest_drape(
+    solver: &mut DrapeSolver,
+    settings: &DrapeSettings,
+    garment: &Garment,
+    body: &CapsuleBody,
+) -> Result<(Vec<Vec3>, DrapeStats)> {
+    let rest_pose = &garment.rest_pose;
+    let mut positions = garment.rest.vertices.clone();
+    let mut stats = settle_at_rest(solver, settings, &mut positions, body, rest_pose)?;
+    if !stats.converged && rest_pose.mirrored() == *rest_pose {
+        // A drape that does not settle at a left-right symmetric rest pose can drift to one
+        // side for as long as the iteration cap lets it (Spandex: 22 mm, 59 mm of mirror
+        // asymmetry). Restart it from its mirror average and settle it again.
+        if let Ok(map) = MirrorMap::of_garment(garment) {
+            let mirrored = map.mirrored(&positions)?;
+            for (p, m) in positions.iter_mut().zip(&mirrored) {
+                *p = (*p + m) * 0.5;
+            }
+            let first = stats;
+            stats = settle_at_rest(solver, settings, &mut positions, body, rest_pose)?;
+            stats.add_cost_of(&first);
+        }
+    }
+    Ok((positions, stats))
 }
 
 /// Every pose's settled garment along [`drape_sequence`]'s walk from the rest pose (metres;
