@@ -1,11 +1,13 @@
-//! Run: `cargo run --release --example rest_symmetry [-- --materials A,B]`
+//! Run: `cargo run --release --example rest_symmetry [-- --materials A,B] [--resolution R]`
 //!
 //! Whether every fabric's rest drape, the start of every revision-3 sample, is left-right
-//! symmetric, as its rest pose (the A-pose) is. For each preset (default resolution) it
-//! settles the garment once from its rest mesh ([`settle_at_rest`], the first solve) and
-//! prints whether that converged and its mirror asymmetry (mm), then the rest drape the
-//! canonical protocol keeps ([`CanonicalDraper::new`]: a first solve that does not converge
-//! is restarted from its mirror average) with its Newton iterations and asymmetry.
+//! symmetric, as its rest pose (the A-pose) is. For each preset (at `--resolution`: coarse,
+//! default, which is the default, or paper) it settles the garment once from its rest mesh
+//! ([`settle_at_rest`], the first solve) and prints whether that converged and its mirror
+//! asymmetry (mm), then the rest drape every sample and walk starts from
+//! ([`CanonicalDraper::new`], [`garmatnet::sim::settle_rest_drape`]: a first solve that does
+//! not converge is restarted from its mirror average) with its Newton iterations and
+//! asymmetry.
 
 use anyhow::Result;
 use clap::Parser;
@@ -20,12 +22,15 @@ struct Args {
     /// Preset fabrics, comma-separated (default: every preset).
     #[arg(long, value_delimiter = ',')]
     materials: Vec<String>,
+    /// Template resolution: coarse, default or paper.
+    #[arg(long, default_value = "default")]
+    resolution: Resolution,
 }
 
 fn main() -> Result<()> {
     let args = Args::parse();
     let body = CapsuleBody::smpl_neutral();
-    let garment = Garment::tshirt(Resolution::Default, &body)?;
+    let garment = Garment::tshirt(args.resolution, &body)?;
     let map = MirrorMap::of_garment(&garment)?;
     let settings = canonical_settings();
     let names: Vec<String> = if args.materials.is_empty() {
