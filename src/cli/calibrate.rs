@@ -67,10 +67,10 @@ const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
 /// --seed 0`): the default reference poses are picked from these.
 const DATASET_POSES: usize = 200;
 
-/// The shipped model (0.7) trained on that dataset's first 120 poses, holding out every
-/// 10th: a default reference pose outside them is one it never trained on.
+/// The shipped model trained on every pose of that dataset but every 10th, which it held
+/// out: a default reference pose among those is one it never trained on.
 fn shipped_model_trained_on(pose: usize) -> bool {
-    pose < 120 && !pose.is_multiple_of(10)
+    pose < DATASET_POSES && !pose.is_multiple_of(10)
 }
 
 /// The default reference poses that `frames` picks: independent poses of the sampler with
@@ -91,7 +91,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             if let Some((i, _)) = poses.iter().find(|(i, _)| !shipped_model_trained_on(*i)) {
                 warnln!(
                     "warning: pose {i} of the shipped model's dataset is not one it trained on \
-                     (it trained on poses 1-119 but every 10th): a reference pose the nets do \
+                     (it trained on every pose but every 10th): a reference pose the nets do \
                      not know well makes the calibration worse"
                 );
             }

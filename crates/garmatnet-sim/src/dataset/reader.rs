@@ -238,8 +238,9 @@ pub const SOUND_STRETCH: f64 = 1.2;
 /// The largest mirror asymmetry (metres; the mean over vertices of `|x_i - mirror(x_twin(i))|`,
 /// so a drape shifted sideways by `s` reads `2s`) of a sound drape at a pose that is its own
 /// mirror. Measured on the revision-3 everyday suite at default resolution (40 presets at its
-/// nine symmetric poses): 345 of 360 drapes within 5 mm, drapes that buckle one way up to
-/// 9.4 mm, while Spandex's, which settle shifted to the body's left, read 21–63 mm.
+/// nine symmetric poses): 0.56 mm on average, drapes that buckle one way up to 9.4 mm, while
+/// drapes from a rest drape that drifted to one side (Spandex's, before the rest drape was
+/// restarted symmetric) read 21–63 mm.
 pub const SOUND_ASYMMETRY_M: f64 = 0.02;
 
 /// Whether a spring of `kind` carries stretch (structural warp and weft, shear) rather than
