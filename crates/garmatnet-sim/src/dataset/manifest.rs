@@ -43,10 +43,10 @@ pub const DATASET_FORMAT_VERSION: u32 = 1;
 ///   Where two body parts press into each other the body leaves the cloth a channel about
 ///   1 cm wide, its lips rounded (garmatnet-core's `PINCH_HALF_WIDTH`, `PINCH_SMOOTHING`), and the fitted shirt's springs are at least 0.7
 ///   of their pattern length (`FITTED_MIN_REST_FRACTION`), so hanging and raised arms do
-///   not tear the cloth. Since version 0.7.0 a rest drape that does not settle within the
-///   iteration cap is restarted from its mirror average ([`crate::CanonicalDraper::new`]):
-///   of the presets only Spandex's changes (it drifted 22 mm to the body's left), so the
-///   revision stays 3, and Spandex samples made before it are stale.
+///   not tear the cloth. A rest drape that does not settle within the iteration cap is
+///   restarted from its mirror average ([`crate::settle_rest_drape`]); of the presets only
+///   Spandex's changes with it (it drifted 22 mm to the body's left), so the revision stays
+///   3, and the Spandex samples of datasets made before version 0.7.0 are stale.
 pub const GROUND_TRUTH_REVISION: u32 = 3;
 
 /// The body the garments were draped on.
