@@ -587,7 +587,7 @@ fn a_walk_starts_from_the_symmetric_rest_drape() {
         &garment,
         &body,
         &spandex,
-        &[garment.rest_pose.clone()],
+        std::slice::from_ref(&garment.rest_pose),
         &settings,
         None,
         |_, x, _| {
