@@ -436,7 +436,8 @@ pub struct SequenceResume {
 /// Starts from the rest garment on the body in the garment's rest pose
 /// ([`Garment::rest_pose`]: the A-pose for the fitted shirt, the T-pose for the boxy one)
 /// and drapes it there (landing it frictionless for [`LANDING_ITERATIONS`], then settling
-/// it with friction: [`settle_at_rest`]), then walks
+/// it with friction, restarted from its mirror average where that does not settle:
+/// [`settle_rest_drape`]), then walks
 /// to each pose through intermediate poses ([`surface_steps`]: [`interpolation_steps`] at
 /// `settings.max_step_rad`, or fewer with `settings.max_surface_step`), warm-starting every
 /// step from the previous result (carried with the body when `settings.follow_body`) with
