@@ -11,8 +11,8 @@ use garmatnet::core::{
 };
 use garmatnet::sim::{
     ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest,
-    MotionGenerator, MotionPace, PoseSampler, PoseSamplerConfig, SequenceSettings, Shard,
-    canonical_settings, everyday_poses, generate_dataset, manifest_path,
+    MotionGenerator, MotionPace, PoseSampler, PoseSamplerConfig, SamplePlan, SequenceSettings,
+    Shard, canonical_settings, everyday_poses, generate_dataset, manifest_path,
 };
 use garmatnet::train::Progress;
 
@@ -69,6 +69,16 @@ pub struct SimulateArgs {
     /// the sequence, as in revisions 1 and 2; for animations).
     #[arg(long, default_value = "canonical")]
     pub protocol: DrapeProtocol,
+    /// Drape each pose past the first `--full-poses` for every G-th fabric only: pose p for
+    /// the fabrics m (in list order, from 0) with m % G == p % G. G times the poses for the
+    /// same solver time; poses, not fabrics, limit the nets' accuracy. Canonical protocol
+    /// only. Default 1: every fabric at every pose.
+    #[arg(long, value_name = "G", default_value_t = 1)]
+    pub fabric_stride: usize,
+    /// With `--fabric-stride G`: how many of the first poses every fabric drapes (e.g. those
+    /// of an existing full dataset given to `--reuse`).
+    #[arg(long, value_name = "D", default_value_t = 0)]
+    pub full_poses: usize,
     /// Template resolution: coarse, default or paper.
     #[arg(long, default_value = "default")]
     pub resolution: Resolution,
@@ -89,8 +99,11 @@ pub struct SimulateArgs {
     pub solver: Option<PathBuf>,
     /// An existing dataset to build on (repeatable): its finished samples of the materials
     /// listed here too (same name and ω) are copied in first, so only the rest is draped.
-    /// It must have been made with the same template and poses; a new `--out` takes its
-    /// solver settings unless `--solver` is given.
+    /// It must have been made with the same template and settings; under the canonical
+    /// protocol its samples go to the poses of this dataset equal to theirs (so a dataset of
+    /// more poses, e.g. `--poses 1400` after `--poses 200`, or poses from a file, builds on
+    /// it), a walk's poses must be the same. A new `--out` takes its solver settings unless
+    /// `--solver` is given.
     #[arg(long, value_name = "DIR")]
     pub reuse: Vec<PathBuf>,
     /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
@@ -378,6 +391,15 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             }
         }
     };
+    let plan = match (args.fabric_stride, args.full_poses) {
+        (0, _) => bail!("--fabric-stride 0: give 1 (every fabric at every pose) or more"),
+        (1, 0) => SamplePlan::Full,
+        (1, d) => bail!(
+            "--full-poses {d} says how many poses every fabric drapes before --fabric-stride \
+             takes over: give --fabric-stride G with G of 2 or more too"
+        ),
+        (stride, full_poses) => SamplePlan::Strided { stride, full_poses },
+    };
     let config = GenerateConfig {
         out: args.out.clone(),
         frames: (0..poses.len()).collect(),
@@ -390,12 +412,18 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         shard: Shard::parse(&args.shard)?,
         reuse: args.reuse.clone(),
         protocol: args.protocol,
+        plan,
     };
-    let shard_materials = (0..config.materials.len())
+    let shard_samples: usize = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
-        .count();
+        .map(|m| {
+            (0..config.poses.len())
+                .filter(|&p| config.plan.includes(m, p))
+                .count()
+        })
+        .sum();
     let progress = Progress::stderr(
-        (shard_materials * config.poses.len()) as u64,
+        shard_samples as u64,
         "samples",
         "{bar:40} {pos}/{len} samples  {elapsed} elapsed, ETA {eta}  {msg}",
         args.quiet,

@@ -143,6 +143,19 @@ pub enum Error {
         /// The number of poses in the dataset.
         poses: usize,
     },
+    /// A sample the dataset's [`crate::SamplePlan`] does not hold was to be written.
+    #[error(
+        "sample of material {material} at pose {pose} is not in the dataset's plan ({plan}): \
+         drape the samples the plan holds, or make a dataset with another plan"
+    )]
+    SampleOutsidePlan {
+        /// The material index given.
+        material: usize,
+        /// The pose index given.
+        pose: usize,
+        /// The dataset's plan.
+        plan: crate::SamplePlan,
+    },
     /// A shard is not `i/k` with `i < k`. Write it as two integers, e.g. `0/4` for the first
     /// of four; the shards of `k` are `0/k` to `(k-1)/k`.
     #[error("shard `{text}` is not of the form i/k with i below k, e.g. 0/4{}", shard_range(*count))]
@@ -266,6 +279,8 @@ pub enum SpecField {
     Solver,
     /// The Laplacian smoothing settings.
     Smoothing,
+    /// The sample plan (which materials drape which poses).
+    Plan,
 }
 
 impl std::fmt::Display for SpecField {
@@ -279,6 +294,7 @@ impl std::fmt::Display for SpecField {
             SpecField::Poses => "poses",
             SpecField::Solver => "solver settings",
             SpecField::Smoothing => "smoothing settings",
+            SpecField::Plan => "sample plan",
         })
     }
 }

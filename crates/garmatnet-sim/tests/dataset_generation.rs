@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use garmatnet_core::{Material, Resolution, SmoothingSettings};
 use garmatnet_sim::{
     DrapeProtocol, DrapeSettings, Error, GenerateConfig, GenerateEvent, Manifest, MergeReport,
-    MotionGenerator, SequenceSettings, Shard, check, generate_dataset, merge_shards,
+    MotionGenerator, SamplePlan, SequenceSettings, Shard, check, generate_dataset, merge_shards,
 };
 
 fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
@@ -38,6 +38,7 @@ fn config(out: &Path, threads: usize, shard: Shard) -> GenerateConfig {
         shard,
         reuse: Vec::new(),
         protocol: DrapeProtocol::Walk,
+        plan: SamplePlan::Full,
     }
 }
 
@@ -262,5 +263,121 @@ fn canonical_drapes_do_not_depend_on_dataset_order_shard_or_threads() -> anyhow:
     let manifest = Manifest::read(&a)?;
     assert_eq!(manifest.spec.protocol, DrapeProtocol::Canonical);
     assert_eq!(manifest.spec.ground_truth_revision, Some(3));
+    Ok(())
+}
+
+/// A strided plan drapes the samples it holds and no others, a canonical dataset of more
+/// poses builds on one of fewer (its samples go to the equal poses), and what it drapes
+/// equals the same (pose, fabric) draped in any other dataset.
+#[test]
+fn a_strided_plan_drapes_its_samples_and_builds_on_fewer_poses() -> anyhow::Result<()> {
+    let tmp = tempfile::tempdir()?;
+    let poses = MotionGenerator::new(5, 4).generate();
+    let canonical = |out: &Path, order: &[usize], materials: &[&str], plan| {
+        let mut c = config(out, 2, Shard::ALL);
+        c.protocol = DrapeProtocol::Canonical;
+        c.sequence.max_surface_step = 0.05;
+        c.poses = order.iter().map(|&i| poses[i].clone()).collect();
+        c.frames = (0..order.len()).collect();
+        c.materials = materials
+            .iter()
+            .map(|n| (n.to_string(), Material::preset(n).unwrap()))
+            .collect();
+        c.plan = plan;
+        c
+    };
+    let three = ["Cotton Poplin", "Silk Chiffon", "Denim Heavy"];
+    let a = tmp.path().join("a");
+    generate_dataset(
+        &canonical(&a, &[0, 1], &three, SamplePlan::Full),
+        &|_| {},
+        &|| false,
+    )?;
+    let b = tmp.path().join("b");
+    let plan = SamplePlan::Strided {
+        stride: 3,
+        full_poses: 2,
+    };
+    let mut config_b = canonical(&b, &[0, 1, 2, 3], &three, plan);
+    config_b.reuse = vec![a.clone()];
+    let report = generate_dataset(&config_b, &|_| {}, &|| false)?;
+    // Poses 0 and 1 for all three (imported); pose 2 for material 2, pose 3 for material 0.
+    assert_eq!(
+        (report.imported, report.written, report.shard_samples),
+        (6, 2, 8)
+    );
+    let manifest = Manifest::read(&b)?;
+    assert_eq!(manifest.spec.plan, plan);
+    let done: Vec<(usize, usize)> = manifest
+        .samples
+        .iter()
+        .map(|s| (s.material, s.pose))
+        .collect();
+    assert_eq!(
+        done,
+        [
+            (0, 0),
+            (0, 1),
+            (0, 3),
+            (1, 0),
+            (1, 1),
+            (2, 0),
+            (2, 1),
+            (2, 2)
+        ]
+    );
+    let checked = check(&b)?;
+    assert!(checked.is_ok() && checked.missing.is_empty(), "{checked}");
+    assert!(checked.to_string().contains("8 samples"), "{checked}");
+
+    let simulated = |dir: &Path, m: usize, p: usize| {
+        let stem = garmatnet_sim::sample_stem(m, p);
+        std::fs::read(dir.join("samples").join(&stem).join("simulated.npy")).unwrap()
+    };
+    assert_eq!(simulated(&a, 1, 1), simulated(&b, 1, 1));
+    // Denim Heavy at pose 2, draped alone in a dataset of that one pose.
+    let c = tmp.path().join("c");
+    generate_dataset(
+        &canonical(&c, &[2], &["Denim Heavy"], SamplePlan::Full),
+        &|_| {},
+        &|| false,
+    )?;
+    assert_eq!(simulated(&c, 0, 0), simulated(&b, 2, 2));
+
+    // The writer refuses a sample outside the plan, by name.
+    let writer = garmatnet_sim::DatasetWriter::open(&b, manifest.spec.clone())?;
+    let reader = garmatnet_sim::DatasetReader::open(&a)?;
+    let arrays = reader.read_sample(reader.sample(0, 0).unwrap())?;
+    let stats = reader.sample(0, 0).unwrap().stats.clone();
+    let err = writer.write_sample(1, 2, &arrays, stats).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::SampleOutsidePlan {
+                material: 1,
+                pose: 2,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    drop(writer);
+
+    // A walk visits every pose: a strided plan is refused before anything is written.
+    let walk_dir = tmp.path().join("walk");
+    let mut walk = canonical(&walk_dir, &[0, 1, 2], &three, plan);
+    walk.protocol = DrapeProtocol::Walk;
+    let err = generate_dataset(&walk, &|_| {}, &|| false).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::InvalidSpec {
+                field: garmatnet_sim::SpecField::Plan,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(!walk_dir.join("manifest.json").exists());
     Ok(())
 }

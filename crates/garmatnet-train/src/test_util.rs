@@ -65,6 +65,7 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
         },
         ground_truth_revision: Some(garmatnet_sim::GROUND_TRUTH_REVISION),
         protocol: Default::default(),
+        plan: Default::default(),
     };
     let writer = DatasetWriter::open(dir, spec).unwrap();
     let skeleton = body.skeleton();

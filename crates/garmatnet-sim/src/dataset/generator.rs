@@ -6,7 +6,8 @@
 //! ([`CanonicalDraper`]); the workers take samples pose-major (every material's first pose,
 //! then every material's second, ...), so an interrupted run leaves a smaller dataset whose
 //! materials share a prefix of the poses, and a resumed run drapes exactly the samples not
-//! on disk. Materials run in parallel (rayon). Under the
+//! on disk; a [strided plan](SamplePlan::Strided) drapes only the samples it holds. Materials
+//! run in parallel (rayon). Under the
 //! [walk](DrapeProtocol::Walk) each material walks the whole pose sequence in order, every
 //! pose warm-started from the previous one ([`drape_sequence`]); a material whose first `k`
 //! poses are on disk resumes from pose `k - 1`'s saved garment. Both round their state to the
@@ -23,8 +24,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::dataset::manifest::{
-    BodyInfo, DatasetSpec, GROUND_TRUTH_REVISION, MaterialEntry, SampleStats, SmoothingInfo,
-    sample_stem,
+    BodyInfo, DatasetSpec, GROUND_TRUTH_REVISION, MaterialEntry, SamplePlan, SampleStats,
+    SmoothingInfo, sample_stem,
 };
 use crate::dataset::reuse::import_samples;
 use crate::dataset::sample_arrays::read_simulated;
@@ -55,6 +56,10 @@ pub struct GenerateConfig {
     /// rest drape; revision 3's datasets) or [`DrapeProtocol::Walk`] (each from the previous
     /// pose of its material's walk).
     pub protocol: DrapeProtocol,
+    /// Which (material, pose) samples to drape: every one, or a
+    /// [strided](SamplePlan::Strided) plan that covers more poses for the same solver time
+    /// (canonical protocol only).
+    pub plan: SamplePlan,
     /// The smoothing that splits drapes into smooth garment and details.
     pub smoothing: SmoothingSettings,
     /// Worker threads (materials in parallel); 0 = rayon's default (all cores).
@@ -155,6 +160,7 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
         },
         ground_truth_revision: Some(GROUND_TRUTH_REVISION),
         protocol: config.protocol,
+        plan: config.plan,
     })
 }
 
@@ -186,7 +192,15 @@ pub fn generate_dataset(
     let materials: Vec<usize> = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
         .collect();
-    let shard_samples = materials.len() * config.poses.len();
+    let plan = config.plan;
+    let shard_samples: usize = materials
+        .iter()
+        .map(|&m| {
+            (0..config.poses.len())
+                .filter(|&p| plan.includes(m, p))
+                .count()
+        })
+        .sum();
     // A material's walk resumes at its first unfinished pose and drapes every pose after it
     // (the walk is continuous), so finished samples past a gap are written again: only the
     // poses before that first gap are skipped. Canonical samples stand alone: every finished
@@ -198,7 +212,7 @@ pub fn generate_dataset(
                 .find(|&p| !writer.is_done(m, p))
                 .unwrap_or(config.poses.len()),
             DrapeProtocol::Canonical => (0..config.poses.len())
-                .filter(|&p| writer.is_done(m, p))
+                .filter(|&p| plan.includes(m, p) && writer.is_done(m, p))
                 .count(),
         })
         .sum();
@@ -368,7 +382,7 @@ fn canonical_samples(
 
     let todo: Vec<(usize, usize)> = (0..config.poses.len())
         .flat_map(|p| materials.iter().map(move |&m| (m, p)))
-        .filter(|&(m, p)| !is_done(m, p))
+        .filter(|&(m, p)| config.plan.includes(m, p) && !is_done(m, p))
         .collect();
     let per_material: Vec<usize> = (0..config.materials.len())
         .map(|m| todo.iter().filter(|t| t.0 == m).count())

@@ -121,6 +121,70 @@ pub struct SampleRecord {
     pub stats: SampleStats,
 }
 
+/// Which (material, pose) samples a dataset holds.
+///
+/// Poses, not fabrics, limit the nets' accuracy away from their training poses: a fabric the
+/// model never saw errs like a training fabric at the same pose, and the error falls with the
+/// training poses as their count to the power −0.3 (the book's *Results*). A
+/// [`SamplePlan::Strided`] dataset therefore drapes each pose past its first `full_poses` for
+/// every `stride`-th fabric only, rotating with the pose, so the same solver time covers
+/// `stride` times the poses, and every fabric still drapes every `stride`-th of them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum SamplePlan {
+    /// Every material at every pose (every dataset made before plans were recorded).
+    #[default]
+    Full,
+    /// Every material at the first `full_poses` poses; each later pose `p` for the materials
+    /// `m` with `m % stride == p % stride` alone.
+    Strided {
+        /// The rotation's period: each later pose drapes about one fabric in `stride`.
+        stride: usize,
+        /// How many of the first poses every material drapes.
+        full_poses: usize,
+    },
+}
+
+impl SamplePlan {
+    /// Whether the plan holds the sample of `material` at `pose`.
+    #[must_use]
+    pub fn includes(&self, material: usize, pose: usize) -> bool {
+        match *self {
+            Self::Full => true,
+            Self::Strided { stride, full_poses } => {
+                pose < full_poses || stride == 0 || material % stride == pose % stride
+            }
+        }
+    }
+
+    /// The samples the plan holds out of `materials` × `poses`.
+    #[must_use]
+    pub fn sample_count(&self, materials: usize, poses: usize) -> usize {
+        (0..poses)
+            .map(|p| (0..materials).filter(|&m| self.includes(m, p)).count())
+            .sum()
+    }
+
+    /// Whether this is [`SamplePlan::Full`].
+    #[must_use]
+    pub fn is_full(&self) -> bool {
+        *self == Self::Full
+    }
+}
+
+impl std::fmt::Display for SamplePlan {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Self::Full => f.write_str("every material at every pose"),
+            Self::Strided { stride, full_poses } => write!(
+                f,
+                "every material at the first {full_poses} poses, then pose p for the \
+                 materials m with m % {stride} == p % {stride}"
+            ),
+        }
+    }
+}
+
 /// Everything that defines a dataset before any sample exists: written once into the
 /// manifest; a resumed or merged run must match it exactly.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -148,6 +212,10 @@ pub struct DatasetSpec {
     /// protocol, which read and write back unchanged.
     #[serde(default, skip_serializing_if = "is_walk")]
     pub protocol: DrapeProtocol,
+    /// Which (material, pose) samples the dataset holds; absent (every one) in manifests of
+    /// full datasets, which read and write back unchanged.
+    #[serde(default, skip_serializing_if = "SamplePlan::is_full")]
+    pub plan: SamplePlan,
 }
 
 fn is_walk(protocol: &DrapeProtocol) -> bool {
@@ -175,7 +243,9 @@ impl DatasetSpec {
     /// empty first), an invalid pose ([`SpecField::Poses`] with its index), or a material
     /// ([`SpecField::Materials`] with its index) whose name appears twice, whose ω is not
     /// finite or outside the material bounds, or whose `omega_normalized` is not its ω's
-    /// normalised coordinates; [`Error::Mismatch`] if `frames` and `poses` differ in length.
+    /// normalised coordinates; [`SpecField::Plan`] for a strided plan whose stride is 0 or more
+    /// than the materials, or with the walk protocol; [`Error::Mismatch`] if `frames` and
+    /// `poses` differ in length.
     pub fn validate(&self) -> crate::Result<()> {
         let invalid = |field, entry, problem| crate::Error::InvalidSpec {
             field,
@@ -209,6 +279,26 @@ impl DatasetSpec {
                 got: self.frames.len().to_string(),
             }
             .into());
+        }
+        if let SamplePlan::Strided { stride, .. } = self.plan {
+            let problem = if stride == 0 || stride > self.materials.len() {
+                Some(format!(
+                    "a plan with stride {stride} over {} materials leaves poses no material \
+                     drapes: choose a stride from 1 to the number of materials",
+                    self.materials.len()
+                ))
+            } else if self.protocol == DrapeProtocol::Walk {
+                Some(
+                    "a walk drapes every pose of its material in order, so its dataset holds \
+                     every sample: a strided plan needs the canonical protocol"
+                        .to_owned(),
+                )
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(invalid(SpecField::Plan, None, problem));
+            }
         }
         for (i, pose) in self.poses.iter().enumerate() {
             pose.validate().map_err(|e| {
@@ -360,6 +450,67 @@ mod tests {
             "m-01_p0001",
         ] {
             assert_eq!(parse_sample_stem(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_strided_plan_rotates_the_fabrics_after_its_full_poses() {
+        let plan = SamplePlan::Strided {
+            stride: 3,
+            full_poses: 2,
+        };
+        let held = |p: usize| (0..7).filter(|&m| plan.includes(m, p)).collect::<Vec<_>>();
+        assert_eq!(held(0), (0..7).collect::<Vec<_>>());
+        assert_eq!(held(1), (0..7).collect::<Vec<_>>());
+        assert_eq!(held(2), [2, 5]);
+        assert_eq!(held(3), [0, 3, 6]);
+        assert_eq!(held(4), [1, 4]);
+        // 2 full poses of 7, then 2 + 3 + 2 + 2 + 3 + 2 over poses 2..8.
+        assert_eq!(plan.sample_count(7, 8), 14 + 14);
+        assert_eq!(SamplePlan::Full.sample_count(7, 8), 56);
+        assert!((0..8).all(|p| SamplePlan::Full.includes(6, p)));
+    }
+
+    #[test]
+    fn a_full_plan_is_not_written_and_a_strided_one_round_trips() {
+        let full = serde_json::to_value(Manifest {
+            format_version: DATASET_FORMAT_VERSION,
+            spec: crate::dataset::writer::tests::tiny_spec(),
+            samples: Vec::new(),
+        })
+        .unwrap();
+        // Manifests of full datasets read and write back as they were made.
+        assert!(full.get("plan").is_none(), "{full}");
+        let mut spec = crate::dataset::writer::tests::tiny_spec();
+        spec.protocol = DrapeProtocol::Canonical;
+        spec.plan = SamplePlan::Strided {
+            stride: 2,
+            full_poses: 1,
+        };
+        let json = serde_json::to_value(&spec).unwrap();
+        assert_eq!(
+            json["plan"],
+            serde_json::json!({ "kind": "strided", "stride": 2, "full_poses": 1 })
+        );
+        let back: DatasetSpec = serde_json::from_value(json).unwrap();
+        assert_eq!(back, spec);
+        spec.validate().unwrap();
+        for stride in [0, spec.materials.len() + 1] {
+            spec.plan = SamplePlan::Strided {
+                stride,
+                full_poses: 0,
+            };
+            let err = spec.validate().unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    crate::Error::InvalidSpec {
+                        field: SpecField::Plan,
+                        ..
+                    }
+                ),
+                "{err}"
+            );
         }
     }
 }

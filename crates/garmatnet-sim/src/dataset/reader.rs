@@ -172,12 +172,14 @@ pub struct DatasetReport {
     pub materials: usize,
     /// Number of poses.
     pub poses: usize,
+    /// Which (material, pose) samples the dataset holds.
+    pub plan: crate::SamplePlan,
     /// The [`crate::GROUND_TRUTH_REVISION`] of the solver that made the dataset, as its
     /// manifest records it (`None`: made before revisions were recorded).
     pub ground_truth_revision: Option<u32>,
     /// Finished samples (with a completion marker).
     pub complete: usize,
-    /// Samples not finished yet, as (material, pose).
+    /// Samples of the plan not finished yet, as (material, pose).
     pub missing: Vec<(usize, usize)>,
     /// Finished samples whose arrays are unreadable or mis-shaped, with the reason.
     pub corrupt: Vec<(String, String)>,
@@ -305,12 +307,20 @@ impl DatasetReport {
 
 impl fmt::Display for DatasetReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let expected = self.materials * self.poses;
-        writeln!(
-            f,
-            "{} materials x {} poses = {expected} samples",
-            self.materials, self.poses
-        )?;
+        let expected = self.plan.sample_count(self.materials, self.poses);
+        if self.plan.is_full() {
+            writeln!(
+                f,
+                "{} materials x {} poses = {expected} samples",
+                self.materials, self.poses
+            )?;
+        } else {
+            writeln!(
+                f,
+                "{} materials, {} poses, {expected} samples: {}",
+                self.materials, self.poses, self.plan
+            )?;
+        }
         writeln!(
             f,
             "ground-truth revision: {}{}",
@@ -462,7 +472,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     }
     let missing = (0..spec.materials.len())
         .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
-        .filter(|&(m, p)| reader.sample(m, p).is_none())
+        .filter(|&(m, p)| spec.plan.includes(m, p) && reader.sample(m, p).is_none())
         .collect();
     let stats = || reader.samples().iter().map(|r| &r.stats);
     let max_stretch = springs
@@ -485,6 +495,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     Ok(DatasetReport {
         materials: spec.materials.len(),
         poses: spec.poses.len(),
+        plan: spec.plan,
         ground_truth_revision: spec.ground_truth_revision,
         complete: reader.samples().len(),
         missing,
@@ -663,6 +674,7 @@ mod tests {
             walked.path(),
             DatasetSpec {
                 protocol: DrapeProtocol::Walk,
+                plan: Default::default(),
                 ..spec
             },
         );

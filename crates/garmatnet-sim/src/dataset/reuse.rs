@@ -8,13 +8,16 @@
 //! coverage of ω, the lever for unseen fabrics) can therefore start from the samples of one
 //! made with the same poses and settings, and drape only what is new.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use garmatnet_core::Error;
 
+use crate::dataset::manifest::DatasetSpec;
 use crate::dataset::reader::DatasetReader;
 use crate::dataset::shard::Shard;
-use crate::dataset::writer::{DatasetWriter, compare_specs};
+use crate::dataset::writer::{DatasetWriter, SpecScope, compare_specs};
+use crate::solver::canonical::DrapeProtocol;
 
 /// What [`import_samples`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -50,13 +53,14 @@ pub fn import_samples(
 ) -> crate::Result<ImportReport> {
     let reader = DatasetReader::open(source)?;
     let dest = writer.spec();
-    compare_specs(dest, reader.spec(), false, &|what| {
+    compare_specs(dest, reader.spec(), SpecScope::Reuse, &|what| {
         format!(
             "{what} of the dataset to reuse, {} (reuse only a dataset made with the same \
              template, poses and settings)",
             source.display()
         )
     })?;
+    let poses = pose_map(dest, reader.spec());
     // Source material index -> destination index (this shard's), and whether any is shared.
     let mut map = vec![None; reader.spec().materials.len()];
     let mut shared = false;
@@ -98,19 +102,44 @@ pub fn import_samples(
         ..ImportReport::default()
     };
     for record in reader.samples() {
-        let Some(to) = map[record.material] else {
+        let (Some(to), Some(pose)) = (map[record.material], poses[record.pose]) else {
             continue;
         };
-        if writer.is_done(to, record.pose) {
+        if !dest.plan.includes(to, pose) {
+            continue;
+        }
+        if writer.is_done(to, pose) {
             report.already_done += 1;
             continue;
         }
         let arrays = reader.read_sample(record)?;
-        writer.write_sample(to, record.pose, &arrays, record.stats.clone())?;
+        writer.write_sample(to, pose, &arrays, record.stats.clone())?;
         report.imported += 1;
     }
     writer.flush()?;
     Ok(report)
+}
+
+/// For each pose of `source`, the index of the same pose in `dest`, bit for bit (`None` if
+/// `dest` lacks it). The specs' protocols are equal ([`compare_specs`]); a walk's poses are
+/// the same list, so each maps to its own index, and a canonical sample, which depends on its
+/// own pose alone, goes wherever `dest` lists that pose (the first place, if twice).
+fn pose_map(dest: &DatasetSpec, source: &DatasetSpec) -> Vec<Option<usize>> {
+    let key =
+        |p: &garmatnet_core::Pose| p.to_vec().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+    let mut index: HashMap<Vec<u64>, usize> = HashMap::new();
+    for (i, pose) in dest.poses.iter().enumerate().rev() {
+        index.insert(key(pose), i);
+    }
+    source
+        .poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| match dest.protocol {
+            DrapeProtocol::Walk => Some(i),
+            DrapeProtocol::Canonical => index.get(&key(pose)).copied(),
+        })
+        .collect()
 }
 
 #[cfg(test)]

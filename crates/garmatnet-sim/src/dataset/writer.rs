@@ -50,6 +50,7 @@ use crate::dataset::manifest::{
 };
 use crate::dataset::sample_arrays::{SampleArrays, write_points_npy};
 use crate::error::SpecField;
+use crate::solver::canonical::DrapeProtocol;
 use crate::solver::garment_drape::SequenceSettings;
 
 /// How often at most [`DatasetWriter::write_sample`] rewrites `manifest.json` (the markers
@@ -149,7 +150,8 @@ impl DatasetWriter {
     /// [`crate::Error::InvalidSpec`] for an inconsistent spec; [`Error::Io`] if the directory is
     /// not writable, or with kind `WouldBlock` if another process (or writer) holds its lock;
     /// [`crate::Error::SpecMismatch`] if the existing manifest has a different revision,
-    /// protocol, template, body, materials, poses, frames, solver or smoothing settings;
+    /// protocol, template, body, materials, poses, frames, solver or smoothing settings or
+    /// sample plan;
     /// [`Error::Parse`] for a malformed existing manifest or marker.
     pub fn open(dir: impl AsRef<Path>, spec: DatasetSpec) -> crate::Result<Self> {
         let dir = dir.as_ref().to_owned();
@@ -216,7 +218,8 @@ impl DatasetWriter {
     /// `arrays.simulated`, `arrays.smoothed`: `[vertex_count, 3]`; `arrays.body`: `[m, 3]`.
     ///
     /// # Errors
-    /// [`crate::Error::SampleOutOfRange`] for indices outside the dataset; [`Error::NonFinite`]
+    /// [`crate::Error::SampleOutOfRange`] for indices outside the dataset,
+    /// [`crate::Error::SampleOutsidePlan`] for a sample its plan does not hold; [`Error::NonFinite`]
     /// (naming the sample and the stat) for non-finite stats; [`Error::Mismatch`] /
     /// [`Error::NonFinite`] (naming the sample) for bad arrays; [`Error::Io`] if a file cannot
     /// be written.
@@ -233,6 +236,13 @@ impl DatasetWriter {
                 pose,
                 materials: self.spec.materials.len(),
                 poses: self.spec.poses.len(),
+            });
+        }
+        if !self.spec.plan.includes(material, pose) {
+            return Err(crate::Error::SampleOutsidePlan {
+                material,
+                pose,
+                plan: self.spec.plan,
             });
         }
         let stem = sample_stem(material, pose);
@@ -330,19 +340,32 @@ impl Drop for DatasetWriter {
 }
 
 pub(crate) fn ensure_same_spec(existing: &DatasetSpec, new: &DatasetSpec) -> crate::Result<()> {
-    compare_specs(existing, new, true, &|what| {
+    compare_specs(existing, new, SpecScope::Whole, &|what| {
         format!("existing dataset's {what} (use a new directory or the same settings)")
     })
 }
 
-/// Compares two specs field by field (the material lists only when `materials`), naming the
-/// first difference through `describe(field)`.
+/// What [`compare_specs`] compares beyond the revision, protocol, template, body, solver and
+/// smoothing, which make a sample what it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SpecScope {
+    /// Everything: the same dataset (resumed or merged).
+    Whole,
+    /// A dataset whose samples another one reuses: the materials and the plan may differ, and
+    /// so may the poses under the canonical protocol, where a sample depends on its own pose
+    /// alone (they are matched by value); a walk's poses must be the same.
+    Reuse,
+}
+
+/// Compares two specs field by field (how far: `scope`), naming the first difference through
+/// `describe(field)`.
 pub(crate) fn compare_specs(
     existing: &DatasetSpec,
     new: &DatasetSpec,
-    materials: bool,
+    scope: SpecScope,
     describe: &dyn Fn(&str) -> String,
 ) -> crate::Result<()> {
+    let whole = scope == SpecScope::Whole;
     let differs =
         |field: SpecField, what: &str, expected: String, got: String| crate::Error::SpecMismatch {
             field,
@@ -391,7 +414,7 @@ pub(crate) fn compare_specs(
             .collect::<Vec<_>>()
             .join(", ")
     };
-    if materials && existing.materials != new.materials {
+    if whole && existing.materials != new.materials {
         return Err(differs(
             SpecField::Materials,
             "materials",
@@ -399,7 +422,8 @@ pub(crate) fn compare_specs(
             names(new),
         ));
     }
-    if existing.poses != new.poses || existing.frames != new.frames {
+    let poses = whole || existing.protocol == DrapeProtocol::Walk;
+    if poses && (existing.poses != new.poses || existing.frames != new.frames) {
         let first = (0..existing.poses.len().max(new.poses.len()))
             .find(|&i| {
                 existing.poses.get(i) != new.poses.get(i)
@@ -430,6 +454,14 @@ pub(crate) fn compare_specs(
             "smoothing",
             format!("{:?}", existing.smoothing),
             format!("{:?}", new.smoothing),
+        ));
+    }
+    if whole && existing.plan != new.plan {
+        return Err(differs(
+            SpecField::Plan,
+            "sample plan",
+            existing.plan.to_string(),
+            new.plan.to_string(),
         ));
     }
     Ok(())
@@ -507,6 +539,7 @@ pub(crate) mod tests {
             },
             ground_truth_revision: Some(crate::GROUND_TRUTH_REVISION),
             protocol: Default::default(),
+            plan: Default::default(),
         }
     }
 

@@ -146,7 +146,7 @@ impl TrainingDataset {
         if !allow_incomplete {
             let missing: Vec<String> = (0..spec.materials.len())
                 .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
-                .filter(|&(m, p)| reader.sample(m, p).is_none())
+                .filter(|&(m, p)| spec.plan.includes(m, p) && reader.sample(m, p).is_none())
                 .map(|(m, p)| garmatnet_sim::sample_stem(m, p))
                 .collect();
             if let Some(first) = missing.first() {
@@ -154,7 +154,8 @@ impl TrainingDataset {
                     "{} of {} samples are missing (first: {first}, material `{}`); finish \
                      generating it or allow an incomplete dataset",
                     missing.len(),
-                    spec.materials.len() * spec.poses.len(),
+                    spec.plan
+                        .sample_count(spec.materials.len(), spec.poses.len()),
                     spec.materials
                         [garmatnet_sim::manifest::parse_sample_stem(first).map_or(0, |(m, _)| m)]
                     .name

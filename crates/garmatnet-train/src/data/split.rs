@@ -597,6 +597,7 @@ mod tests {
             },
             ground_truth_revision: None,
             protocol: Default::default(),
+            plan: Default::default(),
         }
     }
 
