@@ -568,7 +568,8 @@ fn toy_random_simulate(
 
 /// Settings files and sizes `simulate` cannot honour are refused before the dataset's
 /// directory is made: a misspelt key (it would have run with the default), a step that
-/// would cut a pose change into astronomically many, and a motion too long to hold.
+/// would cut a pose change into astronomically many, a motion too long to hold, and sample
+/// plans that leave poses undraped or do not fit a walk.
 #[test]
 fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
@@ -600,6 +601,28 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
         (
             vec!["--poses", "18446744073709551615"],
             "at most 100000 frames",
+        ),
+        (
+            vec!["--poses", "2", "--fabric-stride", "0"],
+            "--fabric-stride 0",
+        ),
+        (vec!["--poses", "2", "--full-poses", "1"], "--full-poses 1"),
+        (
+            vec!["--poses", "2", "--fabric-stride", "2"],
+            "stride 2 over 1 materials",
+        ),
+        (
+            vec![
+                "--poses",
+                "2",
+                "--random-materials",
+                "1",
+                "--fabric-stride",
+                "2",
+                "--protocol",
+                "walk",
+            ],
+            "needs the canonical protocol",
         ),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
@@ -845,7 +868,7 @@ fn simulate_draws_random_materials_between_presets() -> anyhow::Result<()> {
 }
 
 #[test]
-fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
+fn simulate_builds_on_a_dataset_of_the_same_or_fewer_poses() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let quick = quick_solver(dir.path())?;
     let simulate = |out: &str, materials: &str, poses: &str, reuse: Option<&str>| {
@@ -916,8 +939,43 @@ fn simulate_builds_on_a_dataset_with_the_same_poses() -> anyhow::Result<()> {
         )?)?)
     };
     assert_eq!(manifest("b")?["solver"], manifest("a")?["solver"]);
-    // Other poses: refused, naming what differs.
+    // More poses (the sampler's pose i depends on the seed and i alone): the canonical
+    // samples of pose 0 are copied to pose 0, only pose 1 is draped.
     let output = simulate("c", "Cotton Poplin", "2", Some("a"))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{output:?}");
+    assert!(
+        stdout.contains("wrote 2 samples (2 already done, 2 of them copied from --reuse"),
+        "{stdout}"
+    );
+    assert_eq!(
+        read(dir.path().join("a/samples/m000_p0000/simulated.npy"))?,
+        read(dir.path().join("c/samples/m000_p0000/simulated.npy"))?
+    );
+    // A walk's samples depend on the poses before them: other poses are refused, naming
+    // what differs.
+    let walk = |out: &str, poses: &str, reuse: Option<&str>| {
+        let mut cmd = garmatnet();
+        cmd.args(["simulate", "--materials", "Cotton Poplin", "--poses", poses])
+            .args([
+                "--protocol",
+                "walk",
+                "--motion",
+                "brisk",
+                "--resolution",
+                "coarse",
+            ])
+            .args(["--quiet", "--out"])
+            .arg(dir.path().join(out));
+        match reuse {
+            Some(reuse) => cmd.arg("--reuse").arg(dir.path().join(reuse)),
+            None => cmd.arg("--solver").arg(&quick),
+        };
+        cmd.output()
+    };
+    let first = walk("w1", "1", None)?;
+    anyhow::ensure!(first.status.success(), "{first:?}");
+    let output = walk("w2", "2", Some("w1"))?;
     assert!(!output.status.success());
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("poses of the dataset to reuse"), "{stderr}");
