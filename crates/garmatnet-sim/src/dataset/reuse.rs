@@ -6,7 +6,9 @@
 //! template, the body and the solver and smoothing settings — not on which other materials
 //! share the dataset. A dataset with more fabrics (denser
 //! coverage of ω, the lever for unseen fabrics) can therefore start from the samples of one
-//! made with the same poses and settings, and drape only what is new.
+//! made with the same poses and settings, and drape only what is new; under the canonical
+//! protocol, where a sample depends on its own pose alone, so can a dataset of more or other
+//! poses (each sample goes to the pose equal to its own).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -32,7 +34,9 @@ pub struct ImportReport {
 
 /// Copies into the dataset `writer` writes every finished sample of the dataset in `source`
 /// whose material the destination also lists (same name and ω) and `shard` takes, at that
-/// material's index in the destination, unless the destination has it already. Samples are
+/// material's index in the destination and (canonical protocol) at the destination's pose
+/// equal to its own, bit for bit, unless the destination has it already or its
+/// [`crate::SamplePlan`] does not hold it. Samples are
 /// read and checked (shapes, finiteness) and written through
 /// [`DatasetWriter::write_sample`]: arrays first, completion marker last, so a killed import
 /// resumes like a killed run.
@@ -40,8 +44,9 @@ pub struct ImportReport {
 /// # Errors
 /// - as [`DatasetReader::open`] and [`DatasetReader::read_sample`] for `source`;
 /// - [`crate::Error::SpecMismatch`] if `source` differs from the destination in anything
-///   but its material list (template, body, poses or frames, solver settings, smoothing: its
-///   samples would be walks another dataset does not make); [`Error::Mismatch`] if it lists
+///   but its material list, its plan and (canonical protocol) its poses: revision, protocol,
+///   template, body, a walk's poses or frames, solver settings, smoothing (its samples would
+///   be drapes another dataset does not make); [`Error::Mismatch`] if it lists
 ///   a material under the destination's name with another ω;
 /// - [`crate::Error::NothingToReuse`] if the two share no material at all (a shard that takes
 ///   none of the shared ones imports nothing, so one command serves every shard);
