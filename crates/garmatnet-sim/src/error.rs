@@ -143,18 +143,22 @@ pub enum Error {
         /// The number of poses in the dataset.
         poses: usize,
     },
-    /// A sample the dataset's [`crate::SamplePlan`] does not hold was to be written.
+    /// A sample the dataset's strided sample plan does not hold was to be written.
     #[error(
-        "sample of material {material} at pose {pose} is not in the dataset's plan ({plan}): \
-         drape the samples the plan holds, or make a dataset with another plan"
+        "sample of material {material} at pose {pose} is not in the dataset's plan (every \
+         material at the first {full_poses} poses, then pose p for the materials m with \
+         m % {stride} == p % {stride}): drape the samples the plan holds, or make a dataset \
+         with another plan"
     )]
     SampleOutsidePlan {
         /// The material index given.
         material: usize,
         /// The pose index given.
         pose: usize,
-        /// The dataset's plan.
-        plan: crate::SamplePlan,
+        /// The plan's stride.
+        stride: usize,
+        /// How many of the first poses every material drapes under the plan.
+        full_poses: usize,
     },
     /// A shard is not `i/k` with `i < k`. Write it as two integers, e.g. `0/4` for the first
     /// of four; the shards of `k` are `0/k` to `(k-1)/k`.

@@ -45,8 +45,8 @@ use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{Error, OutputLock, Result};
 
 use crate::dataset::manifest::{
-    DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SampleRecord, SampleStats, manifest_path,
-    parse_sample_stem, revision_label, sample_stem,
+    DATASET_FORMAT_VERSION, DatasetSpec, Manifest, SamplePlan, SampleRecord, SampleStats,
+    manifest_path, parse_sample_stem, revision_label, sample_stem,
 };
 use crate::dataset::sample_arrays::{SampleArrays, write_points_npy};
 use crate::error::SpecField;
@@ -238,11 +238,14 @@ impl DatasetWriter {
                 poses: self.spec.poses.len(),
             });
         }
-        if !self.spec.plan.includes(material, pose) {
+        if let SamplePlan::Strided { stride, full_poses } = self.spec.plan
+            && !self.spec.plan.includes(material, pose)
+        {
             return Err(crate::Error::SampleOutsidePlan {
                 material,
                 pose,
-                plan: self.spec.plan,
+                stride,
+                full_poses,
             });
         }
         let stem = sample_stem(material, pose);
