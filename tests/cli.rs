@@ -1204,7 +1204,9 @@ fn dataset_merge_joins_shards_and_completes_slim_samples() -> anyhow::Result<()>
         "{stdout}"
     );
     assert!(
-        stdout.contains("it holds 4 of 2 materials x 2 poses"),
+        stdout.contains(
+            "it holds 4 of 4 samples (2 materials, 2 poses: every material at every pose)"
+        ),
         "{stdout}"
     );
     let status = garmatnet()
@@ -1572,5 +1574,47 @@ fn body_notes_only_poses_past_the_training_limits() -> anyhow::Result<()> {
         assert!(out.status.success(), "{name}: {stderr}");
         assert!(stderr.is_empty(), "{name}: {stderr}");
     }
+    Ok(())
+}
+
+/// A strided plan end to end: `simulate` drapes the plan's samples, `dataset check` finds
+/// none missing, and `dataset animate` plays a fabric's stored drapes at the poses the plan
+/// holds for it.
+#[test]
+fn simulate_a_strided_plan_then_check_and_animate_it() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let quick = quick_solver(dir.path())?;
+    let data = dir.path().join("strided");
+    let stdout = stdout_of_success(
+        garmatnet()
+            .args([
+                "simulate",
+                "--materials",
+                "Cotton Poplin",
+                "--random-materials",
+                "1",
+            ])
+            .args(["--poses", "3", "--fabric-stride", "2", "--full-poses", "1"])
+            .args(["--resolution", "coarse", "--quiet", "--solver"])
+            .arg(&quick)
+            .arg("--out")
+            .arg(&data),
+    )?;
+    // Pose 0 for both fabrics, pose 1 for fabric 1, pose 2 for fabric 0.
+    assert!(stdout.contains("wrote 4 samples"), "{stdout}");
+    let report = stdout_of_success(garmatnet().args(["dataset", "check"]).arg(&data))?;
+    assert!(
+        report.contains("2 materials, 3 poses, 4 samples") && report.contains("missing: 0"),
+        "{report}"
+    );
+    stdout_of_success(
+        garmatnet()
+            .args(["dataset", "animate"])
+            .arg(&data)
+            .args(["--material", "Cotton Poplin", "--out"])
+            .arg(dir.path().join("a.obj")),
+    )?;
+    let frame = |f: usize| dir.path().join(format!("a.{f:04}.obj")).exists();
+    assert_eq!((frame(0), frame(1), frame(2)), (true, false, true));
     Ok(())
 }

@@ -104,14 +104,19 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             let merged = garmatnet::sim::Manifest::read(into)?;
             outln!(
                 "merged {} samples into {} ({} copied, {} completed from slim samples); it holds \
-                 {} of {} materials x {} poses",
+                 {} of {} samples ({} materials, {} poses: {})",
                 report.copied + report.derived,
                 into.display(),
                 report.copied,
                 report.derived,
                 merged.samples.len(),
+                merged
+                    .spec
+                    .plan
+                    .sample_count(merged.spec.materials.len(), merged.spec.poses.len()),
                 merged.spec.materials.len(),
-                merged.spec.poses.len()
+                merged.spec.poses.len(),
+                merged.spec.plan
             )?;
             Ok(())
         }

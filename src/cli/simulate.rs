@@ -16,7 +16,8 @@ use garmatnet::sim::{
 };
 use garmatnet::train::Progress;
 
-/// Drape the T-shirt for every (material, pose) pair and write a dataset directory.
+/// Drape the T-shirt for every (material, pose) pair, or those of a strided plan, and write a
+/// dataset directory.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
     /// `all` (the presets), or a comma-separated list of preset names, of fabrics of a
@@ -292,15 +293,9 @@ pub fn mixed_materials(
         .collect()
 }
 
-/// Whether `e` is the refusal to resume a dataset whose pose list differs.
-fn is_pose_mismatch(e: &garmatnet::sim::Error) -> bool {
-    matches!(
-        e,
-        garmatnet::sim::Error::SpecMismatch {
-            field: garmatnet::sim::SpecField::Poses,
-            ..
-        }
-    )
+/// Whether `e` is the refusal of a dataset whose spec differs in `field`.
+fn is_spec_mismatch(e: &garmatnet::sim::Error, field: garmatnet::sim::SpecField) -> bool {
+    matches!(e, garmatnet::sim::Error::SpecMismatch { field: f, .. } if *f == field)
 }
 
 /// The most frames `--poses N` generates: at about 5 s a drape (default resolution, one
@@ -428,6 +423,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         "{bar:40} {pos}/{len} samples  {elapsed} elapsed, ETA {eta}  {msg}",
         args.quiet,
     );
+    // Whether `--out` held a dataset before this run (a spec mismatch is then `--out`'s own,
+    // not a `--reuse` source's).
+    let resuming = manifest_path(&config.out).exists();
     let not_converged = AtomicUsize::new(0);
     let report = generate_dataset(
         &config,
@@ -455,7 +453,18 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     );
     progress.finish();
     let report = match report {
-        Err(e) if is_pose_mismatch(&e) && args.poses.parse::<usize>().is_ok() => {
+        Err(e) if resuming && is_spec_mismatch(&e, garmatnet::sim::SpecField::Plan) => {
+            return Err(e).context(format!(
+                "{} was made with another sample plan: resume it with the --fabric-stride and \
+                 --full-poses it was made with (its manifest's `plan`; none: neither flag)",
+                args.out.display()
+            ));
+        }
+        Err(e)
+            if resuming
+                && is_spec_mismatch(&e, garmatnet::sim::SpecField::Poses)
+                && args.poses.parse::<usize>().is_ok() =>
+        {
             return Err(e).context(format!(
                 "{} was made with other poses than `--poses {} --motion {} --seed {} \
                  --arm-clearance {}` gives; resume it with the motion, seed and clearance it \

@@ -288,8 +288,9 @@ fn a_strided_plan_drapes_its_samples_and_builds_on_fewer_poses() -> anyhow::Resu
     };
     let three = ["Cotton Poplin", "Silk Chiffon", "Denim Heavy"];
     let a = tmp.path().join("a");
+    // The source lists its poses in another order, and one the plan holds for one fabric.
     generate_dataset(
-        &canonical(&a, &[0, 1], &three, SamplePlan::Full),
+        &canonical(&a, &[1, 0, 2], &three, SamplePlan::Full),
         &|_| {},
         &|| false,
     )?;
@@ -301,10 +302,11 @@ fn a_strided_plan_drapes_its_samples_and_builds_on_fewer_poses() -> anyhow::Resu
     let mut config_b = canonical(&b, &[0, 1, 2, 3], &three, plan);
     config_b.reuse = vec![a.clone()];
     let report = generate_dataset(&config_b, &|_| {}, &|| false)?;
-    // Poses 0 and 1 for all three (imported); pose 2 for material 2, pose 3 for material 0.
+    // Poses 0 and 1 for all three and pose 2 for material 2 (imported; not pose 2 for the
+    // two others, outside the plan); pose 3 for material 0 (draped).
     assert_eq!(
         (report.imported, report.written, report.shard_samples),
-        (6, 2, 8)
+        (7, 1, 8)
     );
     let manifest = Manifest::read(&b)?;
     assert_eq!(manifest.spec.plan, plan);
@@ -334,7 +336,10 @@ fn a_strided_plan_drapes_its_samples_and_builds_on_fewer_poses() -> anyhow::Resu
         let stem = garmatnet_sim::sample_stem(m, p);
         std::fs::read(dir.join("samples").join(&stem).join("simulated.npy")).unwrap()
     };
-    assert_eq!(simulated(&a, 1, 1), simulated(&b, 1, 1));
+    // Each reused sample sits at its own pose: a's pose 0 is b's pose 1, and a's 1 b's 0.
+    assert_eq!(simulated(&a, 1, 0), simulated(&b, 1, 1));
+    assert_eq!(simulated(&a, 0, 1), simulated(&b, 0, 0));
+    assert_ne!(simulated(&a, 1, 0), simulated(&a, 1, 1));
     // Denim Heavy at pose 2, draped alone in a dataset of that one pose.
     let c = tmp.path().join("c");
     generate_dataset(
@@ -362,6 +367,20 @@ fn a_strided_plan_drapes_its_samples_and_builds_on_fewer_poses() -> anyhow::Resu
         "{err}"
     );
     drop(writer);
+    // Resuming with another plan is refused, naming it.
+    let mut full = manifest.spec.clone();
+    full.plan = SamplePlan::Full;
+    let err = garmatnet_sim::DatasetWriter::open(&b, full).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::SpecMismatch {
+                field: garmatnet_sim::SpecField::Plan,
+                ..
+            }
+        ),
+        "{err}"
+    );
 
     // A walk visits every pose: a strided plan is refused before anything is written.
     let walk_dir = tmp.path().join("walk");

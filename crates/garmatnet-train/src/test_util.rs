@@ -27,6 +27,17 @@ pub(crate) const TARGETS: [&str; 2] = ["Target A", "Target B"];
 /// Writes a dataset of `materials` (the first two named [`TARGETS`]) × `poses` poses (frames
 /// 0, 1, 2, …: every 10th held out) on the coarse T-shirt into `dir`.
 pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
+    synthetic_dataset_with_plan(dir, materials, poses, garmatnet_sim::SamplePlan::Full);
+}
+
+/// [`synthetic_dataset`] holding only the samples `plan` holds (a strided plan needs the
+/// canonical protocol, which the manifest then records).
+pub(crate) fn synthetic_dataset_with_plan(
+    dir: &Path,
+    materials: usize,
+    poses: usize,
+    plan: garmatnet_sim::SamplePlan,
+) {
     let body = CapsuleBody::smpl_neutral();
     let garment = Garment::tshirt(Resolution::Coarse, &body).unwrap();
     let smoother = LaplacianSmoother::new(&garment.rest, SmoothingSettings::default()).unwrap();
@@ -64,14 +75,21 @@ pub(crate) fn synthetic_dataset(dir: &Path, materials: usize, poses: usize) {
             weights: "uniform".into(),
         },
         ground_truth_revision: Some(garmatnet_sim::GROUND_TRUTH_REVISION),
-        protocol: Default::default(),
-        plan: Default::default(),
+        protocol: if plan.is_full() {
+            garmatnet_sim::DrapeProtocol::default()
+        } else {
+            garmatnet_sim::DrapeProtocol::Canonical
+        },
+        plan,
     };
     let writer = DatasetWriter::open(dir, spec).unwrap();
     let skeleton = body.skeleton();
     for (m, material) in material_list.iter().enumerate() {
         let w = material.omega_normalized;
         for (p, pose) in pose_list.iter().enumerate() {
+            if !plan.includes(m, p) {
+                continue;
+            }
             let t = skeleton.skinning_transforms(pose);
             let theta = pose.to_vec();
             let simulated: Vec<_> = garment

@@ -1,13 +1,14 @@
-//! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body,
-//! written as a resumable, shardable dataset ([`crate::dataset::writer`]).
+//! Dataset generation: every (material, pose) drape of a T-shirt on the capsule body, or
+//! those of a [strided plan](SamplePlan::Strided), written as a resumable, shardable dataset
+//! ([`crate::dataset::writer`]).
 //!
 //! Under the [canonical protocol](DrapeProtocol::Canonical) (revision 3, the default of
 //! `garmatnet simulate`) each sample is draped on its own from its material's rest drape
 //! ([`CanonicalDraper`]); the workers take samples pose-major (every material's first pose,
 //! then every material's second, ...), so an interrupted run leaves a smaller dataset whose
-//! materials share a prefix of the poses, and a resumed run drapes exactly the samples not
-//! on disk; a [strided plan](SamplePlan::Strided) drapes only the samples it holds. Materials
-//! run in parallel (rayon). Under the
+//! materials share a prefix of the poses (of the plan's samples, under a strided plan), and a
+//! resumed run drapes exactly the plan's samples not on disk. Materials run in parallel
+//! (rayon). Under the
 //! [walk](DrapeProtocol::Walk) each material walks the whole pose sequence in order, every
 //! pose warm-started from the previous one ([`drape_sequence`]); a material whose first `k`
 //! poses are on disk resumes from pose `k - 1`'s saved garment. Both round their state to the
@@ -172,7 +173,9 @@ pub fn dataset_spec(config: &GenerateConfig, garment: &Garment) -> Result<Datase
 /// # Errors
 /// [`Error::Interrupted`]; dataset errors (lock held by another process, a different
 /// existing dataset in `out`, unwritable directory); settings that fail
-/// [`SequenceSettings::validate`], before anything is written; [`Error::ThreadPool`] if the
+/// [`SequenceSettings::validate`] and a spec that fails [`DatasetSpec::validate`] (e.g.
+/// [`Error::InvalidSpec`] for a strided plan under the walk protocol), before anything is
+/// written; [`Error::ThreadPool`] if the
 /// `threads` workers cannot be started; solver errors.
 pub fn generate_dataset(
     config: &GenerateConfig,

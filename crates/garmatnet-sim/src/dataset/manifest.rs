@@ -146,7 +146,8 @@ pub enum SamplePlan {
 }
 
 impl SamplePlan {
-    /// Whether the plan holds the sample of `material` at `pose`.
+    /// Whether the plan holds the sample of `material` at `pose` (a stride of 0, which
+    /// [`DatasetSpec::validate`] refuses, holds every one).
     #[must_use]
     pub fn includes(&self, material: usize, pose: usize) -> bool {
         match *self {

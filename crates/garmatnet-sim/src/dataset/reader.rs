@@ -674,7 +674,6 @@ mod tests {
             walked.path(),
             DatasetSpec {
                 protocol: DrapeProtocol::Walk,
-                plan: Default::default(),
                 ..spec
             },
         );

@@ -61,7 +61,7 @@ pub fn import_samples(
     compare_specs(dest, reader.spec(), SpecScope::Reuse, &|what| {
         format!(
             "{what} of the dataset to reuse, {} (reuse only a dataset made with the same \
-             template, poses and settings)",
+             template and settings, and for a walk the same poses)",
             source.display()
         )
     })?;
@@ -107,42 +107,52 @@ pub fn import_samples(
         ..ImportReport::default()
     };
     for record in reader.samples() {
-        let (Some(to), Some(pose)) = (map[record.material], poses[record.pose]) else {
+        let Some(to) = map[record.material] else {
             continue;
         };
-        if !dest.plan.includes(to, pose) {
-            continue;
+        // Every place the destination lists this pose and its plan holds this fabric.
+        let targets: Vec<usize> = poses[record.pose]
+            .iter()
+            .copied()
+            .filter(|&pose| dest.plan.includes(to, pose))
+            .collect();
+        let mut arrays = None;
+        for pose in targets {
+            if writer.is_done(to, pose) {
+                report.already_done += 1;
+                continue;
+            }
+            if arrays.is_none() {
+                arrays = Some(reader.read_sample(record)?);
+            }
+            if let Some(arrays) = &arrays {
+                writer.write_sample(to, pose, arrays, record.stats.clone())?;
+                report.imported += 1;
+            }
         }
-        if writer.is_done(to, pose) {
-            report.already_done += 1;
-            continue;
-        }
-        let arrays = reader.read_sample(record)?;
-        writer.write_sample(to, pose, &arrays, record.stats.clone())?;
-        report.imported += 1;
     }
     writer.flush()?;
     Ok(report)
 }
 
-/// For each pose of `source`, the index of the same pose in `dest`, bit for bit (`None` if
+/// For each pose of `source`, the indices of the same pose in `dest`, bit for bit (none if
 /// `dest` lacks it). The specs' protocols are equal ([`compare_specs`]); a walk's poses are
 /// the same list, so each maps to its own index, and a canonical sample, which depends on its
-/// own pose alone, goes wherever `dest` lists that pose (the first place, if twice).
-fn pose_map(dest: &DatasetSpec, source: &DatasetSpec) -> Vec<Option<usize>> {
+/// own pose alone, goes wherever `dest` lists that pose.
+fn pose_map(dest: &DatasetSpec, source: &DatasetSpec) -> Vec<Vec<usize>> {
     let key =
         |p: &garmatnet_core::Pose| p.to_vec().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
-    let mut index: HashMap<Vec<u64>, usize> = HashMap::new();
-    for (i, pose) in dest.poses.iter().enumerate().rev() {
-        index.insert(key(pose), i);
+    let mut index: HashMap<Vec<u64>, Vec<usize>> = HashMap::new();
+    for (i, pose) in dest.poses.iter().enumerate() {
+        index.entry(key(pose)).or_default().push(i);
     }
     source
         .poses
         .iter()
         .enumerate()
         .map(|(i, pose)| match dest.protocol {
-            DrapeProtocol::Walk => Some(i),
-            DrapeProtocol::Canonical => index.get(&key(pose)).copied(),
+            DrapeProtocol::Walk => vec![i],
+            DrapeProtocol::Canonical => index.get(&key(pose)).cloned().unwrap_or_default(),
         })
         .collect()
 }

@@ -219,10 +219,10 @@ impl DatasetWriter {
     ///
     /// # Errors
     /// [`crate::Error::SampleOutOfRange`] for indices outside the dataset,
-    /// [`crate::Error::SampleOutsidePlan`] for a sample its plan does not hold; [`Error::NonFinite`]
-    /// (naming the sample and the stat) for non-finite stats; [`Error::Mismatch`] /
-    /// [`Error::NonFinite`] (naming the sample) for bad arrays; [`Error::Io`] if a file cannot
-    /// be written.
+    /// [`crate::Error::SampleOutsidePlan`] for a sample its plan does not hold;
+    /// [`Error::NonFinite`] (naming the sample and the stat) for non-finite stats;
+    /// [`Error::Mismatch`] / [`Error::NonFinite`] (naming the sample) for bad arrays;
+    /// [`Error::Io`] if a file cannot be written.
     pub fn write_sample(
         &self,
         material: usize,

@@ -479,7 +479,7 @@ pub(crate) fn create_locked_dir(dir: &Path, what: &str) -> Result<garmatnet_core
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_util::synthetic_dataset;
+    use crate::test_util::{synthetic_dataset, synthetic_dataset_with_plan};
 
     #[test]
     fn labels_decompose_the_garment_and_bad_datasets_name_the_sample() {
@@ -524,6 +524,28 @@ mod tests {
         std::fs::write(&manifest, text.replace(&hash, "0123456789abcdef")).unwrap();
         let err = TrainingDataset::open(&data, true).unwrap_err();
         assert!(err.to_string().contains("regenerate the dataset"), "{err}");
+    }
+
+    #[test]
+    fn a_strided_dataset_is_complete_with_the_samples_its_plan_holds() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        let plan = garmatnet_sim::SamplePlan::Strided {
+            stride: 2,
+            full_poses: 1,
+        };
+        synthetic_dataset_with_plan(&data, 3, 4, plan);
+        // Pose 0 for all three, then 1 of 3, 2 of 3 and 1 of 3: 7 samples.
+        let set = TrainingDataset::open(&data, false).unwrap();
+        assert_eq!(set.keys().len(), 7);
+        // A sample the plan holds is still missed, and counted against the plan's total.
+        let stem = garmatnet_sim::sample_stem(2, 2);
+        std::fs::remove_dir_all(data.join("samples").join(&stem)).unwrap();
+        let err = TrainingDataset::open(&data, false).unwrap_err().to_string();
+        assert!(
+            err.contains(&stem) && err.contains("1 of 7 samples"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -25,11 +25,14 @@ pub struct StoredSequence {
 
 /// The stored drapes of the fabric named `material` (case-insensitive) in `data`, at the
 /// frames `frames` names (`START..END`, `START..=END`, `START..` or `all`, as
-/// `garmatnet_sim::resolve_frames` reads them, of the dataset's poses).
+/// `garmatnet_sim::resolve_frames` reads them, of the dataset's poses) that the dataset's
+/// [`SamplePlan`](garmatnet_sim::SamplePlan) holds for that fabric (every one, unless the
+/// dataset is strided).
 ///
 /// # Errors
-/// [`Error::Dataset`] for a name the dataset does not hold (listing what it holds) or a
-/// frame not draped yet (named); the frame parser's errors; unreadable arrays.
+/// [`Error::Dataset`] for a name the dataset does not hold (listing what it holds), frames
+/// the plan holds none of for the fabric, or a frame not draped yet (named); the frame
+/// parser's errors; unreadable arrays.
 pub fn stored_sequence(
     data: &TrainingDataset,
     material: &str,
@@ -51,13 +54,25 @@ pub fn stored_sequence(
             }
         })?;
     let range = frame_range(frames, spec.poses.len(), "the dataset's poses")?;
+    // A strided dataset drapes this fabric at some poses only: the sequence takes those.
+    let held: Vec<usize> = range.filter(|&p| spec.plan.includes(index, p)).collect();
+    if held.is_empty() {
+        return Err(Error::Dataset {
+            dir: data.dir().to_owned(),
+            message: format!(
+                "its plan ({}) drapes `{}` at none of the frames {frames}: choose frames the \
+                 plan holds for it",
+                spec.plan, spec.materials[index].name
+            ),
+        });
+    }
     let mut sequence = StoredSequence {
         material: spec.materials[index].name.clone(),
-        frames: range.clone().collect(),
-        poses: spec.poses[range.clone()].to_vec(),
-        garments: Vec::with_capacity(range.len()),
+        frames: held.clone(),
+        poses: held.iter().map(|&p| spec.poses[p].clone()).collect(),
+        garments: Vec::with_capacity(held.len()),
     };
-    for pose in range {
+    for pose in held {
         let truth = data.truth(SampleKey {
             material: index,
             pose,
