@@ -70,7 +70,8 @@ pub struct GenerateConfig {
     /// Existing datasets to build on: before anything is draped, their finished samples of
     /// the materials this dataset also lists (same name and ω; this shard's) are copied in
     /// ([`crate::import_samples`]), so only the rest is simulated. They must have been made
-    /// with the same template, poses and settings.
+    /// with the same template and settings (a walk also with the same poses; canonical
+    /// samples go to this dataset's equal poses).
     pub reuse: Vec<PathBuf>,
 }
 
