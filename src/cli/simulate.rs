@@ -411,11 +411,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     };
     let shard_samples: usize = (0..config.materials.len())
         .filter(|&m| config.shard.contains_material(m))
-        .map(|m| {
-            (0..config.poses.len())
-                .filter(|&p| config.plan.includes(m, p))
-                .count()
-        })
+        .map(|m| config.plan.material_sample_count(m, config.poses.len()))
         .sum();
     let progress = Progress::stderr(
         shard_samples as u64,

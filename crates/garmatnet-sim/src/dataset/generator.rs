@@ -199,11 +199,7 @@ pub fn generate_dataset(
     let plan = config.plan;
     let shard_samples: usize = materials
         .iter()
-        .map(|&m| {
-            (0..config.poses.len())
-                .filter(|&p| plan.includes(m, p))
-                .count()
-        })
+        .map(|&m| plan.material_sample_count(m, config.poses.len()))
         .sum();
     // A material's walk resumes at its first unfinished pose and drapes every pose after it
     // (the walk is continuous), so finished samples past a gap are written again: only the

@@ -161,9 +161,15 @@ impl SamplePlan {
     /// The samples the plan holds out of `materials` × `poses`.
     #[must_use]
     pub fn sample_count(&self, materials: usize, poses: usize) -> usize {
-        (0..poses)
-            .map(|p| (0..materials).filter(|&m| self.includes(m, p)).count())
+        (0..materials)
+            .map(|m| self.material_sample_count(m, poses))
             .sum()
+    }
+
+    /// The samples the plan holds of `material` among `poses` poses.
+    #[must_use]
+    pub fn material_sample_count(&self, material: usize, poses: usize) -> usize {
+        (0..poses).filter(|&p| self.includes(material, p)).count()
     }
 
     /// Whether this is [`SamplePlan::Full`].

@@ -65,6 +65,17 @@ impl DatasetReader {
             .map(|i| &self.samples[i])
     }
 
+    /// The samples the dataset's plan holds that are not finished, as (material, pose), in
+    /// (material, pose) order.
+    #[must_use]
+    pub fn missing(&self) -> Vec<(usize, usize)> {
+        let spec = &self.spec;
+        (0..spec.materials.len())
+            .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
+            .filter(|&(m, p)| spec.plan.includes(m, p) && self.sample(m, p).is_none())
+            .collect()
+    }
+
     /// Reads and checks one sample's arrays.
     ///
     /// # Shapes
@@ -470,10 +481,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
             Err(e) => corrupt.push((record.stem.clone(), e.to_string())),
         }
     }
-    let missing = (0..spec.materials.len())
-        .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
-        .filter(|&(m, p)| spec.plan.includes(m, p) && reader.sample(m, p).is_none())
-        .collect();
+    let missing = reader.missing();
     let stats = || reader.samples().iter().map(|r| &r.stats);
     let max_stretch = springs
         .is_some()

@@ -111,24 +111,19 @@ pub fn import_samples(
             continue;
         };
         // Every place the destination lists this pose and its plan holds this fabric.
-        let targets: Vec<usize> = poses[record.pose]
+        let (done, todo): (Vec<usize>, Vec<usize>) = poses[record.pose]
             .iter()
             .copied()
             .filter(|&pose| dest.plan.includes(to, pose))
-            .collect();
-        let mut arrays = None;
-        for pose in targets {
-            if writer.is_done(to, pose) {
-                report.already_done += 1;
-                continue;
-            }
-            if arrays.is_none() {
-                arrays = Some(reader.read_sample(record)?);
-            }
-            if let Some(arrays) = &arrays {
-                writer.write_sample(to, pose, arrays, record.stats.clone())?;
-                report.imported += 1;
-            }
+            .partition(|&pose| writer.is_done(to, pose));
+        report.already_done += done.len();
+        if todo.is_empty() {
+            continue;
+        }
+        let arrays = reader.read_sample(record)?;
+        for pose in todo {
+            writer.write_sample(to, pose, &arrays, record.stats.clone())?;
+            report.imported += 1;
         }
     }
     writer.flush()?;

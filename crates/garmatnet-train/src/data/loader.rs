@@ -144,9 +144,9 @@ impl TrainingDataset {
             return Err(bad("it has no finished samples".into()));
         }
         if !allow_incomplete {
-            let missing: Vec<String> = (0..spec.materials.len())
-                .flat_map(|m| (0..spec.poses.len()).map(move |p| (m, p)))
-                .filter(|&(m, p)| spec.plan.includes(m, p) && reader.sample(m, p).is_none())
+            let missing: Vec<String> = reader
+                .missing()
+                .into_iter()
                 .map(|(m, p)| garmatnet_sim::sample_stem(m, p))
                 .collect();
             if let Some(first) = missing.first() {
