@@ -33,7 +33,10 @@ const ARM_CHAINS: [[usize; 5]; 2] = [[13, 16, 18, 20, 22], [14, 17, 19, 21, 23]]
 const TORSO_JOINTS: [usize; 4] = [0, 3, 6, 9];
 
 /// A smallest-gap check between the arms and the torso of the neutral procedural body, and a
-/// minimal correction of poses that break it. See the [module docs](self) for why.
+/// minimal correction of poses that break it. Where an arm comes within about half the
+/// body's blend radius of the torso, the smooth union of capsules fills the gap and cloth
+/// lying between them ends up inside the body, pushed out to both sides at once: a torn
+/// drape. [`ArmClearance::enforce`] lifts such an arm toward the T-pose just far enough.
 #[derive(Debug, Clone)]
 pub struct ArmClearance {
     skeleton: Skeleton,

@@ -84,7 +84,12 @@ impl Default for PoseSamplerConfig {
 /// How often an arm is redrawn on its own, its body kept, before the whole pose is redrawn.
 const ARM_RETRIES: usize = 16;
 
-/// The seeded sampler of independent poses: see the [module docs](self).
+/// The seeded sampler of independent everyday poses. Each pose is drawn on its own in an
+/// anatomical parametrisation (each arm's direction, twist and elbow bend; a torso bend,
+/// twist and side bend; standing, stride or sitting-ish legs with a weight shift; head and
+/// wrists), within [`PoseSamplerConfig::limits`], and redrawn when the body passes through
+/// itself ([`SelfIntersection`]). Pose `i` depends only on the seed and `i`, so the first N
+/// of N + k poses are the N poses, whatever the thread count.
 ///
 /// ```
 /// use garmatnet_sim::{PoseSampler, PoseSamplerConfig};

@@ -122,7 +122,11 @@ struct Pair {
     required: Real,
 }
 
-/// The self-intersection check of one body: see the [module docs](self).
+/// The self-intersection check of one body: the gap, on the posed capsules of a
+/// [`CapsuleBody`], between every pair of body parts that should not meet. A pair with an arm
+/// capsule must keep [`SelfIntersection::arm_gap_m`] between the surfaces (an arm at the side
+/// may press a little into the ribs); any other pair must not overlap. Pairs that touch by
+/// construction (a joint and its parent, the torso's capsules, the limb roots) are skipped.
 ///
 /// ```
 /// use garmatnet_core::{CapsuleBody, Pose};

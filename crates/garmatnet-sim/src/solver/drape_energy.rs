@@ -59,7 +59,8 @@ pub fn contact_stiffness(model: &ClothModel, settings: &DrapeSettings) -> Vec<Re
 
 /// The solver's conservative drape energy of `model` at positions `x` (metres) against
 /// `collider`, by term, and its gradient (newtons, one per vertex), with no vertex pinned.
-/// Friction is left out (see the [module](self) docs). The reference for any other
+/// Friction is left out: it charges slip from where each vertex settled, so no potential of
+/// the positions alone describes it. The reference for any other
 /// implementation of the energy.
 ///
 /// # Errors

@@ -54,7 +54,8 @@ pub struct DrapeSettings {
     /// ([`crate::SequenceSettings::from_manifest`]).
     pub contact_hardening: Real,
     /// Coulomb friction coefficient between cloth and collider (dimensionless; 0 is
-    /// frictionless). Friction is smooth and lagged (see [`crate::solver::drape_solver`]) and acts
+    /// frictionless). Friction is smooth and lagged (normals and normal forces held from the start of each
+    /// drape, as incremental potential contact does) and acts
     /// on each contact vertex's slip from its anchor, so a shirt on a moving body stays
     /// where it landed unless pulled harder than the Coulomb bound. Default 0.3 (cotton on
     /// skin): with it (and [`crate::SequenceSettings::follow_body`]) drapes of two fabrics
