@@ -6,7 +6,8 @@
 //! --held-out NAME=DIR ... --report REPORT_DIR`, whose `report.json` this reads). It prints
 //! every held-out set's whole error per model, fits `error = a · poses^b` to each set by least
 //! squares on the logarithms, prints `b` and the pose count at which the fit reaches
-//! `--target` millimetres, and draws the points on a chart (`--out`, PNG).
+//! `--target` millimetres, and draws the points on a chart (`--out`, PNG; each set's `b` in the
+//! legend). The reports must all be mirror-averaged or all raw (`--no-mirror-averaging`).
 
 use std::path::PathBuf;
 
@@ -36,7 +37,10 @@ fn parse_point(s: &str) -> Result<(f64, PathBuf)> {
     let poses: f64 = poses
         .parse()
         .with_context(|| format!("{poses:?}: the training poses must be a number"))?;
-    ensure!(poses > 0.0, "{poses}: the training poses must be positive");
+    ensure!(
+        poses.is_finite() && poses > 0.0,
+        "{poses}: the training poses must be a positive number"
+    );
     Ok((poses, PathBuf::from(dir)))
 }
 
@@ -60,8 +64,12 @@ fn power_law(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    ensure!(args.target > 0.0, "--target must be positive");
+    ensure!(
+        args.target.is_finite() && args.target > 0.0,
+        "--target must be a positive number of mm"
+    );
     let mut series: Vec<Series> = Vec::new();
+    let mut mirror_averaging = None;
     for (poses, dir) in &args.points {
         let path = dir.join("report.json");
         let text = std::fs::read_to_string(&path)
@@ -71,8 +79,24 @@ fn main() -> Result<()> {
         if report.held_out_sets.is_empty() {
             bail!("{}: no held-out sets", path.display());
         }
+        match mirror_averaging {
+            None => mirror_averaging = Some(report.mirror_averaging),
+            Some(m) => ensure!(
+                m == report.mirror_averaging,
+                "{}: mirror averaging {}, the reports before it {m}: evaluate them alike",
+                path.display(),
+                report.mirror_averaging
+            ),
+        }
         for set in &report.held_out_sets {
-            let point = (*poses, set.all.whole_mm);
+            let error = set.all.whole_mm;
+            ensure!(
+                error.is_finite() && error > 0.0,
+                "{}: set {} has error {error} mm, not a positive number",
+                path.display(),
+                set.name
+            );
+            let point = (*poses, error);
             match series.iter_mut().find(|s| s.label == set.name) {
                 Some(s) => s.points.push(point),
                 None => series.push(Series {
@@ -93,11 +117,16 @@ fn main() -> Result<()> {
         s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
         match power_law(&s.points) {
             Some((a, b)) => {
-                let needed = (args.target / a).powf(1.0 / b);
-                println!(
-                    "{}: error = {a:.2} · poses^{b:.3}; {} mm at {needed:.0} poses",
-                    s.label, args.target
-                );
+                let reach = if b < 0.0 {
+                    format!(
+                        "{} mm at {:.0} poses",
+                        args.target,
+                        (args.target / a).powf(1.0 / b)
+                    )
+                } else {
+                    "the fit does not fall with more poses".to_owned()
+                };
+                println!("{}: error = {a:.2} · poses^{b:.3}; {reach}", s.label);
                 s.label = format!("{} (poses^{b:.2})", s.label);
             }
             None => println!("{}: fewer than two pose counts, no fit", s.label),
