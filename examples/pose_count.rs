@@ -68,8 +68,7 @@ fn main() -> Result<()> {
         args.target.is_finite() && args.target > 0.0,
         "--target must be a positive number of mm"
     );
-    let mut series: Vec<Series> = Vec::new();
-    let mut mirror_averaging = None;
+    let mut reports = Vec::with_capacity(args.points.len());
     for (poses, dir) in &args.points {
         let path = dir.join("report.json");
         let text = std::fs::read_to_string(&path)
@@ -79,15 +78,23 @@ fn main() -> Result<()> {
         if report.held_out_sets.is_empty() {
             bail!("{}: no held-out sets", path.display());
         }
-        match mirror_averaging {
-            None => mirror_averaging = Some(report.mirror_averaging),
-            Some(m) => ensure!(
-                m == report.mirror_averaging,
-                "{}: mirror averaging {}, the reports before it {m}: evaluate them alike",
-                path.display(),
-                report.mirror_averaging
-            ),
-        }
+        reports.push((*poses, dir, report));
+    }
+    let averaged = reports[0].2.mirror_averaging;
+    if let Some((_, dir, r)) = reports
+        .iter()
+        .find(|(_, _, r)| r.mirror_averaging != averaged)
+    {
+        bail!(
+            "{}: mirror averaging {}, {}'s {averaged}: evaluate them alike",
+            dir.display(),
+            r.mirror_averaging,
+            reports[0].1.display()
+        );
+    }
+    let mut series: Vec<Series> = Vec::new();
+    for (poses, dir, report) in &reports {
+        let path = dir.join("report.json");
         for set in &report.held_out_sets {
             let error = set.all.whole_mm;
             ensure!(
@@ -107,7 +114,7 @@ fn main() -> Result<()> {
             println!(
                 "{poses:>6} poses  {:<18} {:>6.2} mm  ({} samples, {})",
                 set.name,
-                set.all.whole_mm,
+                error,
                 set.all.samples,
                 dir.display()
             );

@@ -54,9 +54,9 @@ pub struct DrapeSettings {
     /// ([`crate::SequenceSettings::from_manifest`]).
     pub contact_hardening: Real,
     /// Coulomb friction coefficient between cloth and collider (dimensionless; 0 is
-    /// frictionless). Friction is smooth and lagged (normals and normal forces held from the start of each
-    /// drape, as incremental potential contact does) and acts
-    /// on each contact vertex's slip from its anchor, so a shirt on a moving body stays
+    /// frictionless). Friction is smooth and lagged (normals and normal forces held from the
+    /// start of each drape, as incremental potential contact does) and acts on each contact
+    /// vertex's slip from its anchor, so a shirt on a moving body stays
     /// where it landed unless pulled harder than the Coulomb bound. Default 0.3 (cotton on
     /// skin): with it (and [`crate::SequenceSettings::follow_body`]) drapes of two fabrics
     /// 0.5 % apart in ω lay 2.6 mm apart on average instead of 14 mm frictionless (3.1

@@ -374,8 +374,8 @@ pub struct Report {
     pub per_material: Vec<MaterialErrors>,
     /// Push-out statistics over the whole test set.
     pub penetration: PenetrationStats,
-    /// The physical quality of the raw predictions (before push-out) over the whole test set (absent
-    /// from reports written before it existed).
+    /// The physical quality of the raw predictions (before push-out) over the whole test set
+    /// (absent from reports written before it existed).
     #[serde(default)]
     pub physical_quality: Option<PhysicalQuality>,
     /// Inference speed.
