@@ -63,8 +63,9 @@ pub struct CalibrateArgs {
 /// the revision-2 model (book/src/experiments/calibration.md).
 const DEFAULT_REFERENCE_FRAMES: &str = "1..=1";
 
-/// How many independent poses the shipped model's dataset has (`simulate --poses 200
-/// --seed 0`): the default reference poses are picked from these.
+/// How many of the shipped model's dataset poses every fabric was draped at (its first 200,
+/// `simulate --poses 200 --seed 0`; past them 5 of the 30 fabrics a pose): the default
+/// reference poses are picked from these.
 const DATASET_POSES: usize = 200;
 
 /// The shipped model trained on every pose of that dataset but every 10th, which it held
