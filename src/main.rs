@@ -25,6 +25,9 @@ enum Command {
     /// List the fabric presets and their material parameters; `--model` also names each
     /// one's nearest training fabric.
     Materials(cli::materials::MaterialsArgs),
+    /// Write the poses `simulate --poses N` drapes as a JSON pose file (after another
+    /// file's or dataset's poses with `--after`).
+    Poses(cli::poses::PosesArgs),
     /// Generate a ground-truth dataset with the mass-spring solver (resumable, shardable).
     Simulate(cli::simulate::SimulateArgs),
     /// Dataset tools.
@@ -77,6 +80,7 @@ fn run(command: &Command) -> anyhow::Result<()> {
         Command::Body(args) => cli::body::run(args),
         Command::Drape(args) => cli::drape::run(args),
         Command::Materials(args) => cli::materials::run(args),
+        Command::Poses(args) => cli::poses::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Dataset(command) => cli::dataset::run(command),
         Command::Train(args) => cli::train::run_train(args),

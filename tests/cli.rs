@@ -624,10 +624,90 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
             ],
             "needs the canonical protocol",
         ),
+        (
+            vec!["--poses", "everyday", "--arm-bands", "0.3,0.1"],
+            "sets how independent poses are drawn",
+        ),
+        (
+            vec!["--poses", "2", "--arm-bands", "0.8,0.3"],
+            "hanging_fraction + raised_fraction",
+        ),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
     }
     Ok(())
+}
+
+/// `poses` writes what `simulate --poses N` drapes, after another file's poses if asked;
+/// another arm share draws other poses; bad input writes nothing.
+#[test]
+fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let (first, joined, other) = (path("first.json"), path("joined.json"), path("other.json"));
+    let run = |args: &[&str]| stdout_of_success(garmatnet().arg("poses").args(args));
+    run(&["--count", "3", "--seed", "4", "--out", &first])?;
+    let report = run(&[
+        "--count", "2", "--seed", "9", "--after", &first, "--out", &joined,
+    ])?;
+    assert!(
+        report.contains("wrote 5 poses") && report.contains("3 from --after"),
+        "{report}"
+    );
+    run(&[
+        "--count",
+        "2",
+        "--seed",
+        "9",
+        "--arm-bands",
+        "0.1,0.1",
+        "--out",
+        &other,
+    ])?;
+    let read = |p: &str| garmatnet::core::read_poses(p);
+    let (first, joined, other) = (read(&first)?, read(&joined)?, read(&other)?);
+    let sampler = |seed| {
+        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
+            seed,
+            ..Default::default()
+        })
+    };
+    assert_eq!(first, sampler(4)?.poses(3)?);
+    assert_eq!(joined[..3], first[..]);
+    assert_eq!(joined[3..], sampler(9)?.poses(2)?[..]);
+    assert_ne!(other[..], joined[3..]);
+    let out = dir.path().join("bad.json");
+    let bad = out.display().to_string();
+    for (args, hint) in [
+        (vec!["--count", "0"], "--count 0"),
+        (
+            vec!["--count", "2", "--arm-bands", "0.5"],
+            "give two fractions",
+        ),
+        (
+            vec![
+                "--count",
+                "2",
+                "--motion",
+                "brisk",
+                "--arm-bands",
+                "0.3,0.1",
+            ],
+            "not a walk",
+        ),
+        (
+            vec!["--count", "2", "--after", "no-such.json"],
+            "no-such.json",
+        ),
+    ] {
+        assert_fails_cleanly(&[&["poses", "--out", &bad][..], &args].concat(), hint, &out)?;
+    }
+    let obj = dir.path().join("poses.obj");
+    assert_fails_cleanly(
+        &["poses", "--count", "1", "--out", &obj.display().to_string()],
+        "ending in .json",
+        &obj,
+    )
 }
 
 /// A training configuration with a misspelt key is refused before any training.

@@ -26,6 +26,7 @@ pub mod drape;
 pub mod ensemble;
 pub mod eval;
 pub mod materials;
+pub mod poses;
 pub mod simulate;
 pub mod stress;
 pub mod template;

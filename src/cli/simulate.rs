@@ -3,10 +3,10 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
 use garmatnet::core::{
-    MATERIAL_DIM, Material, Resolution, SmoothingSettings, SplitMix64, find_preset, presets,
+    MATERIAL_DIM, Material, Pose, Resolution, SmoothingSettings, SplitMix64, find_preset, presets,
     read_poses,
 };
 use garmatnet::sim::{
@@ -58,6 +58,12 @@ pub struct SimulateArgs {
     /// or `gentle` (datasets made before the brisk pace).
     #[arg(long, default_value = "independent")]
     pub motion: MotionKind,
+    /// How independent poses share each arm out between the sampler's three bands:
+    /// `H,R`, the fraction hanging at the side (elevation −88° … −60°) and the fraction
+    /// raised (45° … 85°); the rest lie in between (−60° … 45°). Default 0.5,0.2, the
+    /// revision-3 datasets'; another share draws other poses for the same seed.
+    #[arg(long, value_name = "H,R")]
+    pub arm_bands: Option<String>,
     /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
     /// torso; 0 turns the check off, as datasets made before it existed (resume those with
     /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
@@ -300,7 +306,63 @@ fn is_spec_mismatch(e: &garmatnet::sim::Error, field: garmatnet::sim::SpecField)
 
 /// The most frames `--poses N` generates: at about 5 s a drape (default resolution, one
 /// core) that is six days per fabric, and the motion is held in memory at once.
-const MAX_GENERATED_POSES: usize = 100_000;
+pub const MAX_GENERATED_POSES: usize = 100_000;
+
+/// The `n` poses `--poses N` makes: independent poses of the sampler with `seed` (and
+/// `--arm-bands H,R` when given), or a walk of `motion`'s pace keeping the arms
+/// `arm_clearance` off the torso.
+///
+/// # Errors
+/// `--arm-bands` that is not two fractions summing to at most 1, or given with a walk; a
+/// pose the sampler cannot draw.
+pub fn drawn_poses(
+    n: usize,
+    seed: u64,
+    motion: MotionKind,
+    arm_bands: Option<&str>,
+    arm_clearance: f64,
+) -> Result<Vec<Pose>> {
+    match motion {
+        MotionKind::Independent => {
+            let mut config = PoseSamplerConfig {
+                seed,
+                ..PoseSamplerConfig::default()
+            };
+            if let Some(text) = arm_bands {
+                [config.hanging_fraction, config.raised_fraction] = arm_band_fractions(text)?;
+            }
+            let sampler = PoseSampler::new(config).context("--arm-bands")?;
+            Ok(sampler.poses(n)?)
+        }
+        MotionKind::Walk(pace) => {
+            if let Some(text) = arm_bands {
+                bail!(
+                    "--arm-bands {text} sets how independent poses are drawn, not a walk: \
+                     leave out --motion {pace} or --arm-bands"
+                );
+            }
+            Ok(MotionGenerator {
+                arm_clearance,
+                ..MotionGenerator::with_pace(seed, n, pace)
+            }
+            .generate())
+        }
+    }
+}
+
+/// `--arm-bands H,R`: the fractions of arms hanging and raised.
+fn arm_band_fractions(text: &str) -> Result<[f64; 2]> {
+    let usage = "give two fractions, hanging then raised, e.g. 0.3,0.15";
+    let values = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(|e| anyhow!("--arm-bands {text}: {e}; {usage}"))?;
+    match values[..] {
+        [hanging, raised] => Ok([hanging, raised]),
+        _ => bail!("--arm-bands {text}: {usage}"),
+    }
+}
 
 /// Runs the command.
 pub fn run(args: &SimulateArgs) -> Result<()> {
@@ -334,24 +396,29 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
     ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
     let mut pose_names = None;
+    if let Some(bands) = args
+        .arm_bands
+        .as_deref()
+        .filter(|_| args.poses.parse::<usize>().is_err())
+    {
+        bail!(
+            "--arm-bands {bands} sets how independent poses are drawn: give --poses N, or \
+             leave it out"
+        );
+    }
     let poses = match args.poses.parse::<usize>() {
         Ok(0) => bail!("--poses 0: ask for at least one pose"),
         Ok(n) if n > MAX_GENERATED_POSES => bail!(
             "--poses {n}: --motion makes at most {MAX_GENERATED_POSES} frames (about 5 s of \
              solver time each); for more pass a pose file"
         ),
-        Ok(n) => match args.motion {
-            MotionKind::Independent => PoseSampler::new(PoseSamplerConfig {
-                seed: args.seed,
-                ..PoseSamplerConfig::default()
-            })?
-            .poses(n)?,
-            MotionKind::Walk(pace) => MotionGenerator {
-                arm_clearance: args.arm_clearance,
-                ..MotionGenerator::with_pace(args.seed, n, pace)
-            }
-            .generate(),
-        },
+        Ok(n) => drawn_poses(
+            n,
+            args.seed,
+            args.motion,
+            args.arm_bands.as_deref(),
+            args.arm_clearance,
+        )?,
         Err(_) if args.poses.trim().eq_ignore_ascii_case("everyday") => {
             let suite = everyday_poses();
             pose_names = Some(suite.iter().map(|p| p.name).collect::<Vec<_>>());

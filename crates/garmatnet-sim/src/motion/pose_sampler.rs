@@ -528,6 +528,27 @@ mod tests {
     }
 
     #[test]
+    fn the_default_sampler_draws_the_revision_3_datasets_poses() {
+        // Pose 0 of seed 0 as `simulate --poses 200 --seed 0` drew it for the revision-3
+        // dataset (read from its manifest): a change to the sampler that moves the defaults'
+        // poses would orphan those datasets (they would no longer resume, and `--reuse`
+        // would find none of their samples).
+        let pose = sampler(0).pose(0).unwrap();
+        assert_eq!(
+            pose.joint(0),
+            Vec3::new(0.06975661072888842, -0.11642365319913868, 0.0)
+        );
+        assert_eq!(
+            pose.joint(16),
+            Vec3::new(
+                0.019691786419549513,
+                0.14309660708298946,
+                0.9015199145394341
+            )
+        );
+    }
+
+    #[test]
     fn config_reads_from_partial_json() {
         let config: PoseSamplerConfig = serde_json::from_str(r#"{"seed": 5}"#).unwrap();
         assert_eq!(

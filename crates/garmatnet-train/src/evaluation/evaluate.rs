@@ -9,7 +9,7 @@ use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
 use garmatnet_model::material_range::{TrainingFabric, nearest};
 use garmatnet_model::{Detail, GarMatNetModel, push_out, select_device};
-use garmatnet_sim::{MaterialEntry, MirrorMap};
+use garmatnet_sim::{MaterialEntry, MirrorMap, everyday_poses};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
@@ -222,6 +222,7 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
             material: spec.materials[k.material].name.clone(),
             pose: k.pose,
             frame: spec.frames[k.pose],
+            pose_name: None,
             garmatnet: e.means_mm(),
             baseline: baseline_errors
                 .binary_search_by_key(k, |(bk, _)| *bk)
@@ -375,7 +376,16 @@ fn held_out_set(
                 .any(|t| t.name == m.name && t.omega == m.omega_normalized)
         })
         .collect();
+    // The everyday suite's poses by name, so its per-pose rows say which pose they are.
+    let suite = everyday_poses();
+    let names: Vec<Option<&str>> = set
+        .spec()
+        .poses
+        .iter()
+        .map(|p| suite.iter().find(|e| e.pose == *p).map(|e| e.name))
+        .collect();
     let mut errors = Vec::new();
+    let mut per_sample = Vec::new();
     let mut quality = QualityAccumulator::new(set.garment(), set.spec())?;
     let keys = set.keys();
     // `records()` is in `keys()`'s order: whether each truth met the solver's tolerance.
@@ -386,6 +396,15 @@ fn held_out_set(
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = set.truth(key)?;
             errors.push((key.material, vertex_errors(&truth, &pred)));
+            let e = &errors[errors.len() - 1].1;
+            per_sample.push(SampleErrors {
+                material: set.spec().materials[key.material].name.clone(),
+                pose: key.pose,
+                frame: set.spec().frames[key.pose],
+                pose_name: names[key.pose].map(str::to_owned),
+                garmatnet: e.means_mm(),
+                baseline: None,
+            });
             let pose = &set.spec().poses[key.pose];
             let posed = set.body().pose(pose);
             let mut garment = assemble(&truth.body_points, &pred);
@@ -442,6 +461,7 @@ fn held_out_set(
         physical_quality: quality.finish(),
         per_material,
         symmetry: symmetry.finish(),
+        per_sample,
     })
 }
 
@@ -1248,11 +1268,33 @@ mod tests {
         assert_eq!(whole.all.samples, 6 * 20);
         assert_eq!(whole.unseen_fabrics.as_ref().unwrap().samples, 2 * 20);
         assert!(whole.all.whole_mm.is_finite() && whole.all.whole_mm > 0.0);
+        // One row a sample, each pose once per fabric; every sample has as many vertices, so
+        // the rows' mean is the set's.
+        assert_eq!(whole.per_sample.len(), 6 * 20);
+        // Random poses: none of them is an everyday pose with a name.
+        assert!(whole.per_sample.iter().all(|r| r.pose_name.is_none()));
+        assert!(whole.per_sample.windows(2).all(|w| {
+            (w[0].material == w[1].material && w[0].pose + 1 == w[1].pose)
+                || (w[0].material != w[1].material && w[1].pose == 0)
+        }));
+        let mean = whole
+            .per_sample
+            .iter()
+            .map(|r| r.garmatnet.whole_mm)
+            .sum::<f64>()
+            / whole.per_sample.len() as f64;
+        assert!(
+            (mean - whole.all.whole_mm).abs() < 1e-9 * mean,
+            "{mean} vs {:?}",
+            whole.all
+        );
         // The synthetic poses are random: none is its own mirror image.
         assert!(whole.symmetry.is_none());
         let md = std::fs::read_to_string(dir.path().join("on/report.md")).unwrap();
         assert!(
-            md.contains("mirror averaging on") && md.contains("GarMatNet, whole"),
+            md.contains("mirror averaging on")
+                && md.contains("GarMatNet, whole")
+                && md.contains("## Per pose, whole"),
             "{md}"
         );
         let off_config = EvalConfig {

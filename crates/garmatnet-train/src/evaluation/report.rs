@@ -46,6 +46,10 @@ pub struct SampleErrors {
     pub pose: usize,
     /// The pose's frame in its source sequence.
     pub frame: usize,
+    /// The pose's name when it is one of the everyday suite's (bit for bit), e.g.
+    /// `arms-crossed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_name: Option<String>,
     /// GarMatNet's errors.
     pub garmatnet: PartErrors,
     /// The baseline's errors, when a baseline for this material was given.
@@ -231,6 +235,10 @@ pub struct HeldOutSet {
     /// `None` when it has none (and in reports written before it was measured).
     #[serde(default)]
     pub symmetry: Option<MirrorSymmetry>,
+    /// Every sample's errors, material first, then pose (empty in reports written before
+    /// they were recorded): which poses of the set the model errs most at.
+    #[serde(default)]
+    pub per_sample: Vec<SampleErrors>,
 }
 
 /// Mirror asymmetry at left-right symmetric poses: per sample, the mean over vertices of

@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 
 use crate::evaluation::report::{
-    ErrorStats, HeldOutReport, HeldOutSet, MaterialErrors, PhysicalQuality, Report, SampleErrors,
+    ErrorStats, HeldOutReport, HeldOutSet, MaterialErrors, PartErrors, PhysicalQuality, Report,
+    SampleErrors,
 };
 
 impl Report {
@@ -151,6 +152,7 @@ impl Report {
         test_set_material_table(&mut s, &self.per_material);
         for set in &self.held_out_sets {
             held_out_material_table(&mut s, &set.name, &set.per_material);
+            held_out_pose_table(&mut s, &set.name, &set.per_sample);
         }
         symmetry_table(&mut s, &self.held_out_sets);
         fabric_distance_table(&mut s, self);
@@ -326,6 +328,7 @@ impl HeldOutReport {
         held_out_rows(&mut s, &self.held_out_sets);
         for set in &self.held_out_sets {
             held_out_material_table(&mut s, &set.name, &set.per_material);
+            held_out_pose_table(&mut s, &set.name, &set.per_sample);
         }
         symmetry_table(&mut s, &self.held_out_sets);
         for set in &self.held_out_sets {
@@ -405,6 +408,49 @@ fn held_out_material_table(s: &mut String, set: &str, rows: &[MaterialErrors]) {
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         error_row(s, &material_label(r), &r.garmatnet);
+    }
+}
+
+/// GarMatNet's error per pose of a held-out set, averaged over the set's fabrics at that
+/// pose, with the fabric it errs most at there: which poses the model handles worst.
+fn held_out_pose_table(s: &mut String, set: &str, rows: &[SampleErrors]) {
+    let mut poses: Vec<usize> = rows.iter().map(|r| r.pose).collect();
+    poses.sort_unstable();
+    poses.dedup();
+    if poses.len() < 2 {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## Per pose, {set} (GarMatNet, mean over the pose's fabrics, mm)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| Pose | Frame | Fabrics | Generally-fitting | Locally-detailed | Whole | Worst fabric |"
+    );
+    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---|");
+    for pose in poses {
+        let at: Vec<&SampleErrors> = rows.iter().filter(|r| r.pose == pose).collect();
+        let n = at.len() as f64;
+        let mean = |f: fn(&PartErrors) -> f64| at.iter().map(|r| f(&r.garmatnet)).sum::<f64>() / n;
+        let worst = at
+            .iter()
+            .max_by(|a, b| a.garmatnet.whole_mm.total_cmp(&b.garmatnet.whole_mm))
+            .map(|r| format!("{} ({:.2})", r.material, r.garmatnet.whole_mm))
+            .unwrap_or_default();
+        let label = match &at[0].pose_name {
+            Some(name) => format!("{pose} ({name})"),
+            None => pose.to_string(),
+        };
+        let _ = writeln!(
+            s,
+            "| {label} | {} | {} | {:.2} | {:.2} | {:.2} | {worst} |",
+            at[0].frame,
+            at.len(),
+            mean(|e| e.fitting_mm),
+            mean(|e| e.local_mm),
+            mean(|e| e.whole_mm),
+        );
     }
 }
 
@@ -555,6 +601,43 @@ fn physical_quality_table(s: &mut String, name: &str, q: &PhysicalQuality) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_pose_table_averages_each_pose_over_its_fabrics_and_names_the_worst() {
+        let row = |material: &str, pose: usize, name: Option<&str>, whole_mm: f64| SampleErrors {
+            material: material.into(),
+            pose,
+            frame: pose,
+            pose_name: name.map(str::to_owned),
+            garmatnet: PartErrors {
+                fitting_mm: whole_mm / 2.0,
+                local_mm: 1.0,
+                whole_mm,
+            },
+            baseline: None,
+        };
+        let rows = [
+            row("Tulle", 0, Some("t-pose"), 4.0),
+            row("Tulle", 7, Some("arms-crossed"), 10.0),
+            row("Felt", 0, Some("t-pose"), 6.0),
+            row("Felt", 7, Some("arms-crossed"), 14.0),
+        ];
+        let mut s = String::new();
+        held_out_pose_table(&mut s, "everyday", &rows);
+        assert!(s.contains("## Per pose, everyday"), "{s}");
+        assert!(
+            s.contains("| 0 (t-pose) | 0 | 2 | 2.50 | 1.00 | 5.00 | Felt (6.00) |"),
+            "{s}"
+        );
+        assert!(
+            s.contains("| 7 (arms-crossed) | 7 | 2 | 6.00 | 1.00 | 12.00 | Felt (14.00) |"),
+            "{s}"
+        );
+        // One pose is no table.
+        let mut one = String::new();
+        held_out_pose_table(&mut one, "everyday", &rows[..1]);
+        assert!(one.is_empty());
+    }
 
     #[test]
     fn distance_bins_are_half_open_and_the_last_is_unbounded() {
