@@ -36,7 +36,10 @@ const EDGES: [f64; 7] = [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0];
 /// A set's poses: its manifest's for a dataset directory, else the pose file's.
 fn poses_of(source: &PathBuf) -> Result<Vec<Pose>> {
     if manifest_path(source).exists() {
-        Ok(Manifest::read(source)?.spec.poses)
+        Ok(Manifest::read(source)
+            .with_context(|| format!("reading the dataset in {}", source.display()))?
+            .spec
+            .poses)
     } else {
         read_poses(source).with_context(|| format!("reading poses from {}", source.display()))
     }

@@ -630,7 +630,7 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
         ),
         (
             vec!["--poses", "2", "--arm-bands", "0.8,0.3"],
-            "hanging_fraction + raised_fraction",
+            "together they make at most 1",
         ),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
@@ -676,6 +676,36 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
     assert_eq!(joined[..3], first[..]);
     assert_eq!(joined[3..], sampler(9)?.poses(2)?[..]);
     assert_ne!(other[..], joined[3..]);
+    // After a dataset's poses: an empty shard of one writes its manifest and nothing else.
+    let data = path("data");
+    stdout_of_success(garmatnet().args([
+        "simulate",
+        "--materials",
+        "Tulle",
+        "--poses",
+        "3",
+        "--seed",
+        "4",
+        "--resolution",
+        "coarse",
+        "--shard",
+        "1/2",
+        "--quiet",
+        "--out",
+        &data,
+    ]))?;
+    let after_data = path("after-data.json");
+    run(&[
+        "--count",
+        "1",
+        "--seed",
+        "9",
+        "--after",
+        &data,
+        "--out",
+        &after_data,
+    ])?;
+    assert_eq!(read(&after_data)?, joined[..4]);
     let out = dir.path().join("bad.json");
     let bad = out.display().to_string();
     for (args, hint) in [
@@ -698,6 +728,10 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
         (
             vec!["--count", "2", "--after", "no-such.json"],
             "no-such.json",
+        ),
+        (
+            vec!["--count", "2", "--motion", "brisk", "--arm-clearance", "5"],
+            "--arm-clearance",
         ),
     ] {
         assert_fails_cleanly(&[&["poses", "--out", &bad][..], &args].concat(), hint, &out)?;

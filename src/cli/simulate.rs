@@ -11,8 +11,8 @@ use garmatnet::core::{
 };
 use garmatnet::sim::{
     ArmClearance, DEFAULT_ARM_CLEARANCE, DrapeProtocol, GenerateConfig, GenerateEvent, Manifest,
-    MotionGenerator, MotionPace, PoseSampler, PoseSamplerConfig, SamplePlan, SequenceSettings,
-    Shard, canonical_settings, everyday_poses, generate_dataset, manifest_path,
+    MotionGenerator, MotionPace, POSE_NAMES_FILE, PoseSampler, PoseSamplerConfig, SamplePlan,
+    SequenceSettings, Shard, canonical_settings, everyday_poses, generate_dataset, manifest_path,
 };
 use garmatnet::train::Progress;
 
@@ -153,10 +153,6 @@ impl std::str::FromStr for MotionKind {
         })
     }
 }
-
-/// The file in a dataset directory made with `--poses everyday` that names its poses, in
-/// order (a JSON list of strings).
-pub const POSE_NAMES_FILE: &str = "pose_names.json";
 
 /// Adds fabric `name` to `list` (name, material, named explicitly) unless it is there: a
 /// fabric reached again with the same ω is listed once; two of one name with different ω,
@@ -341,6 +337,8 @@ pub fn drawn_poses(
                      leave out --motion {pace} or --arm-bands"
                 );
             }
+            // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
+            ArmClearance::new(arm_clearance).context("--arm-clearance")?;
             Ok(MotionGenerator {
                 arm_clearance,
                 ..MotionGenerator::with_pace(seed, n, pace)
@@ -358,10 +356,16 @@ fn arm_band_fractions(text: &str) -> Result<[f64; 2]> {
         .map(|v| v.trim().parse::<f64>())
         .collect::<std::result::Result<Vec<_>, _>>()
         .map_err(|e| anyhow!("--arm-bands {text}: {e}; {usage}"))?;
-    match values[..] {
-        [hanging, raised] => Ok([hanging, raised]),
-        _ => bail!("--arm-bands {text}: {usage}"),
+    let [hanging, raised] = values[..] else {
+        bail!("--arm-bands {text}: {usage}");
+    };
+    if !(0.0..=1.0).contains(&hanging) || !(0.0..=1.0).contains(&raised) || hanging + raised > 1.0 {
+        bail!(
+            "--arm-bands {text}: each fraction lies in 0 … 1 and together they make at most 1 \
+             (the rest of the arms lie between hanging and raised); {usage}"
+        );
     }
+    Ok([hanging, raised])
 }
 
 /// Runs the command.
@@ -530,8 +534,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         {
             return Err(e).context(format!(
                 "{} was made with other poses than `--poses {} --motion {} --seed {} \
-                 --arm-clearance {}` gives; resume it with the motion, seed and clearance it \
-                 was made with (walks made before independent poses were the default: \
+                 --arm-clearance {}` (and `--arm-bands`, if given) gives; resume it with the \
+                 motion, seed, arm bands and clearance it was made with (walks made before \
+                 independent poses were the default: \
                  `--motion brisk`; before the arm clearance existed: also `--arm-clearance 0`; \
                  before the brisk pace: `--motion gentle --arm-clearance 0`)",
                 args.out.display(),

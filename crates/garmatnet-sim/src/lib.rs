@@ -31,7 +31,7 @@ pub use error::{Error, Result, SpecField, StepParameter};
 pub use motion::arm_clearance::{ArmClearance, DEFAULT_ARM_CLEARANCE};
 pub use motion::arm_placement::{ArmPlacement, Side};
 pub use motion::everyday_poses::{
-    EverydayPose, everyday_pose, everyday_pose_names, everyday_poses,
+    EverydayPose, POSE_NAMES_FILE, everyday_pose, everyday_pose_names, everyday_poses,
 };
 pub use motion::generator::{
     MIN_STEP_RAD, MotionGenerator, MotionPace, MotionTheme, extreme_poses, interpolation_steps,

@@ -150,6 +150,10 @@ pub fn everyday_poses() -> Vec<EverydayPose> {
     suite
 }
 
+/// The file in a dataset directory made of the everyday suite (`simulate --poses everyday`)
+/// that names its poses, in order (a JSON list of strings).
+pub const POSE_NAMES_FILE: &str = "pose_names.json";
+
 /// The names of [`everyday_poses`], in order.
 #[must_use]
 pub fn everyday_pose_names() -> Vec<&'static str> {

@@ -532,7 +532,8 @@ mod tests {
         // Pose 0 of seed 0 as `simulate --poses 200 --seed 0` drew it for the revision-3
         // dataset (read from its manifest): a change to the sampler that moves the defaults'
         // poses would orphan those datasets (they would no longer resume, and `--reuse`
-        // would find none of their samples).
+        // would find none of their samples). Exact equality on purpose: a platform whose
+        // maths library rounds differently fails here, as it would fail to resume them.
         let pose = sampler(0).pose(0).unwrap();
         assert_eq!(
             pose.joint(0),

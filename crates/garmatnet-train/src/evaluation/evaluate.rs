@@ -9,7 +9,7 @@ use burn::prelude::*;
 use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
 use garmatnet_model::material_range::{TrainingFabric, nearest};
 use garmatnet_model::{Detail, GarMatNetModel, push_out, select_device};
-use garmatnet_sim::{MaterialEntry, MirrorMap, everyday_poses};
+use garmatnet_sim::{MaterialEntry, MirrorMap, POSE_NAMES_FILE, everyday_poses};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
@@ -376,14 +376,23 @@ fn held_out_set(
                 .any(|t| t.name == m.name && t.omega == m.omega_normalized)
         })
         .collect();
-    // The everyday suite's poses by name, so its per-pose rows say which pose they are.
+    // The poses' names, so the per-pose rows say which pose they are: the names the
+    // dataset was made with (`simulate --poses everyday` writes them), else those of
+    // today's everyday poses it holds bit for bit.
     let suite = everyday_poses();
-    let names: Vec<Option<&str>> = set
-        .spec()
-        .poses
-        .iter()
-        .map(|p| suite.iter().find(|e| e.pose == *p).map(|e| e.name))
-        .collect();
+    let written: Option<Vec<String>> = std::fs::read(dir.join(POSE_NAMES_FILE))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<Vec<String>>(&bytes).ok())
+        .filter(|names| names.len() == set.spec().poses.len());
+    let names: Vec<Option<&str>> = match &written {
+        Some(names) => names.iter().map(|n| Some(n.as_str())).collect(),
+        None => set
+            .spec()
+            .poses
+            .iter()
+            .map(|p| suite.iter().find(|e| e.pose == *p).map(|e| e.name))
+            .collect(),
+    };
     let mut errors = Vec::new();
     let mut per_sample = Vec::new();
     let mut quality = QualityAccumulator::new(set.garment(), set.spec())?;
@@ -1261,6 +1270,13 @@ mod tests {
             held_out,
         };
         let set = vec![("whole".to_owned(), data.clone())];
+        // Named poses, as `simulate --poses everyday` names them.
+        let names: Vec<String> = (0..20).map(|i| format!("pose-{i}")).collect();
+        std::fs::write(
+            data.join(POSE_NAMES_FILE),
+            serde_json::to_vec(&names).unwrap(),
+        )
+        .unwrap();
         let on = evaluate_held_out(&held_out("on", set.clone()), &EvalConfig::default()).unwrap();
         assert!(on.mirror_averaging);
         assert_eq!(on.training_fabrics.len(), 4, "6 fabrics less the 2 targets");
@@ -1271,8 +1287,12 @@ mod tests {
         // One row a sample, each pose once per fabric; every sample has as many vertices, so
         // the rows' mean is the set's.
         assert_eq!(whole.per_sample.len(), 6 * 20);
-        // Random poses: none of them is an everyday pose with a name.
-        assert!(whole.per_sample.iter().all(|r| r.pose_name.is_none()));
+        assert!(
+            whole
+                .per_sample
+                .iter()
+                .all(|r| r.pose_name == Some(format!("pose-{}", r.pose)))
+        );
         assert!(whole.per_sample.windows(2).all(|w| {
             (w[0].material == w[1].material && w[0].pose + 1 == w[1].pose)
                 || (w[0].material != w[1].material && w[1].pose == 0)
@@ -1294,7 +1314,8 @@ mod tests {
         assert!(
             md.contains("mirror averaging on")
                 && md.contains("GarMatNet, whole")
-                && md.contains("## Per pose, whole"),
+                && md.contains("## Per pose, whole")
+                && md.contains("| 3 (pose-3) | 3 | 6 |"),
             "{md}"
         );
         let off_config = EvalConfig {

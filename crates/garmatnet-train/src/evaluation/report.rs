@@ -46,8 +46,9 @@ pub struct SampleErrors {
     pub pose: usize,
     /// The pose's frame in its source sequence.
     pub frame: usize,
-    /// The pose's name when it is one of the everyday suite's (bit for bit), e.g.
-    /// `arms-crossed`.
+    /// The pose's name in a held-out set of named poses, e.g. `arms-crossed`: from the
+    /// set's `pose_names.json` ([`garmatnet_sim::POSE_NAMES_FILE`]), else when the pose is
+    /// one of today's everyday poses bit for bit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose_name: Option<String>,
     /// GarMatNet's errors.
