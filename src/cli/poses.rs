@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use garmatnet::core::{read_poses, write_poses_json};
-use garmatnet::sim::{DEFAULT_ARM_CLEARANCE, Manifest, manifest_path};
+use garmatnet::sim::{Manifest, manifest_path};
 
-use super::simulate::{MAX_GENERATED_POSES, MotionKind, drawn_poses};
+use super::simulate::{MAX_GENERATED_POSES, PoseDrawArgs};
 
 /// Write N poses as `simulate --poses N` draws them (independent poses by default) as a
 /// JSON pose file, after the poses of another file or dataset if asked.
@@ -17,19 +17,9 @@ pub struct PosesArgs {
     /// How many poses to draw.
     #[arg(long)]
     pub count: usize,
-    /// Seed, as `simulate --seed`: the same seed and settings give the same poses.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// `independent` (default) or a walk (`brisk`, `gentle`), as `simulate --motion`.
-    #[arg(long, default_value = "independent")]
-    pub motion: MotionKind,
-    /// The share of hanging and raised arms of independent poses, `H,R`, as `simulate
-    /// --arm-bands` (default 0.5,0.2).
-    #[arg(long, value_name = "H,R")]
-    pub arm_bands: Option<String>,
-    /// A walk's gap between the arms and the torso (metres), as `simulate --arm-clearance`.
-    #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
-    pub arm_clearance: f64,
+    /// How they are drawn, as `simulate` draws them.
+    #[command(flatten)]
+    pub draw: PoseDrawArgs,
     /// Poses to put first: a pose file (.json, .npz, .npy) or a dataset directory (its
     /// manifest's poses, in order). `simulate --poses OUT --reuse DIR` then drapes only the
     /// new poses and copies the dataset's samples in.
@@ -64,13 +54,7 @@ pub fn run(args: &PosesArgs) -> Result<()> {
         }
     };
     let first = poses.len();
-    poses.extend(drawn_poses(
-        args.count,
-        args.seed,
-        args.motion,
-        args.arm_bands.as_deref(),
-        args.arm_clearance,
-    )?);
+    poses.extend(args.draw.poses(args.count)?);
     write_poses_json(&args.out, &poses)
         .with_context(|| format!("writing {}", args.out.display()))?;
     outln!(
@@ -78,8 +62,8 @@ pub fn run(args: &PosesArgs) -> Result<()> {
         poses.len(),
         args.out.display(),
         args.count,
-        args.motion,
-        args.seed
+        args.draw.motion,
+        args.draw.seed
     )?;
     Ok(())
 }

@@ -46,30 +46,9 @@ pub struct SimulateArgs {
     /// their names go to `pose_names.json` in `--out`), or a pose file (.json, .npz, .npy).
     #[arg(long)]
     pub poses: String,
-    /// Seed of `--poses N`: pose i of the independent poses depends on the seed and i alone
-    /// (so `--poses 300` extends `--poses 200`); a walk depends on the seed and its length.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// How `--poses N` makes its poses: `independent` (default; each pose drawn on its own
-    /// within the everyday joint limits: arms hanging to overhead, in front and behind,
-    /// elbows bent, torso bent and twisted, legs apart or mid-stride, weight shifted; no
-    /// pose with the body through itself), or a walk for animations: `brisk` (consecutive
-    /// frames distinct poses; the datasets made before independent poses were the default)
-    /// or `gentle` (datasets made before the brisk pace).
-    #[arg(long, default_value = "independent")]
-    pub motion: MotionKind,
-    /// How independent poses share each arm out between the sampler's three bands:
-    /// `H,R`, the fraction hanging at the side (elevation −88° … −60°) and the fraction
-    /// raised (45° … 85°); the rest lie in between (−60° … 45°). Default 0.5,0.2, the
-    /// revision-3 datasets'; another share draws other poses for the same seed.
-    #[arg(long, value_name = "H,R")]
-    pub arm_bands: Option<String>,
-    /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
-    /// torso; 0 turns the check off, as datasets made before it existed (resume those with
-    /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
-    /// part instead (the body leaves the cloth a channel where parts press together).
-    #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
-    pub arm_clearance: f64,
+    /// How `--poses N` draws its poses.
+    #[command(flatten)]
+    pub draw: PoseDrawArgs,
     /// How each sample is draped: `canonical` (default; ground-truth revision 3: each sample
     /// on its own, from the fabric's rest drape along one path from the rest pose, so a drape
     /// depends on its pose and fabric alone) or `walk` (each pose from the previous one of
@@ -117,6 +96,78 @@ pub struct SimulateArgs {
     /// minute; `GARMATNET_PROGRESS_SECS` sets the interval).
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// How N poses are drawn (`simulate --poses N`, `poses --count N`): the seed, independent
+/// poses or a walk, the arms' bands and a walk's arm clearance.
+#[derive(Debug, Args)]
+pub struct PoseDrawArgs {
+    /// Seed of the drawn poses: pose i of independent poses depends on the seed and i alone
+    /// (so 300 poses extend 200); a walk depends on the seed and its length.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// How the poses are made: `independent` (default; each pose drawn on its own
+    /// within the everyday joint limits: arms hanging to overhead, in front and behind,
+    /// elbows bent, torso bent and twisted, legs apart or mid-stride, weight shifted; no
+    /// pose with the body through itself), or a walk for animations: `brisk` (consecutive
+    /// frames distinct poses; the datasets made before independent poses were the default)
+    /// or `gentle` (datasets made before the brisk pace).
+    #[arg(long, default_value = "independent")]
+    pub motion: MotionKind,
+    /// How independent poses share each arm out between the sampler's three bands:
+    /// `H,R`, the fraction hanging at the side (elevation −88° … −60°) and the fraction
+    /// raised (45° … 85°); the rest lie in between (−60° … 45°). Default 0.5,0.2, the
+    /// revision-3 datasets'; another share draws other poses for the same seed.
+    #[arg(long, value_name = "H,R")]
+    pub arm_bands: Option<String>,
+    /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
+    /// torso; 0 turns the check off, as datasets made before it existed (resume those with
+    /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
+    /// part instead (the body leaves the cloth a channel where parts press together).
+    #[arg(long, default_value_t = DEFAULT_ARM_CLEARANCE)]
+    pub arm_clearance: f64,
+}
+
+impl PoseDrawArgs {
+    /// The `n` poses these settings draw: independent poses of the sampler (with
+    /// `--arm-bands H,R` when given), or a walk keeping the arms `--arm-clearance` off the
+    /// torso.
+    ///
+    /// # Errors
+    /// `--arm-bands` that is not two fractions summing to at most 1, or given with a walk;
+    /// an arm clearance outside 0 … 0.1 m for a walk; a pose the sampler cannot draw.
+    pub fn poses(&self, n: usize) -> Result<Vec<Pose>> {
+        let arm_bands = self.arm_bands.as_deref();
+        match self.motion {
+            MotionKind::Independent => {
+                let mut config = PoseSamplerConfig {
+                    seed: self.seed,
+                    ..PoseSamplerConfig::default()
+                };
+                if let Some(text) = arm_bands {
+                    [config.hanging_fraction, config.raised_fraction] = arm_band_fractions(text)?;
+                }
+                let sampler = PoseSampler::new(config).context("--arm-bands")?;
+                Ok(sampler.poses(n)?)
+            }
+            MotionKind::Walk(pace) => {
+                if let Some(text) = arm_bands {
+                    bail!(
+                        "--arm-bands {text} sets how independent poses are drawn, not a walk: \
+                         leave out --motion {pace} or --arm-bands"
+                    );
+                }
+                // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator
+                // clamps).
+                ArmClearance::new(self.arm_clearance).context("--arm-clearance")?;
+                Ok(MotionGenerator {
+                    arm_clearance: self.arm_clearance,
+                    ..MotionGenerator::with_pace(self.seed, n, pace)
+                }
+                .generate())
+            }
+        }
+    }
 }
 
 /// How `simulate --poses N` makes its N poses.
@@ -304,50 +355,6 @@ fn is_spec_mismatch(e: &garmatnet::sim::Error, field: garmatnet::sim::SpecField)
 /// core) that is six days per fabric, and the motion is held in memory at once.
 pub const MAX_GENERATED_POSES: usize = 100_000;
 
-/// The `n` poses `--poses N` makes: independent poses of the sampler with `seed` (and
-/// `--arm-bands H,R` when given), or a walk of `motion`'s pace keeping the arms
-/// `arm_clearance` off the torso.
-///
-/// # Errors
-/// `--arm-bands` that is not two fractions summing to at most 1, or given with a walk; a
-/// pose the sampler cannot draw.
-pub fn drawn_poses(
-    n: usize,
-    seed: u64,
-    motion: MotionKind,
-    arm_bands: Option<&str>,
-    arm_clearance: f64,
-) -> Result<Vec<Pose>> {
-    match motion {
-        MotionKind::Independent => {
-            let mut config = PoseSamplerConfig {
-                seed,
-                ..PoseSamplerConfig::default()
-            };
-            if let Some(text) = arm_bands {
-                [config.hanging_fraction, config.raised_fraction] = arm_band_fractions(text)?;
-            }
-            let sampler = PoseSampler::new(config).context("--arm-bands")?;
-            Ok(sampler.poses(n)?)
-        }
-        MotionKind::Walk(pace) => {
-            if let Some(text) = arm_bands {
-                bail!(
-                    "--arm-bands {text} sets how independent poses are drawn, not a walk: \
-                     leave out --motion {pace} or --arm-bands"
-                );
-            }
-            // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
-            ArmClearance::new(arm_clearance).context("--arm-clearance")?;
-            Ok(MotionGenerator {
-                arm_clearance,
-                ..MotionGenerator::with_pace(seed, n, pace)
-            }
-            .generate())
-        }
-    }
-}
-
 /// `--arm-bands H,R`: the fractions of arms hanging and raised.
 fn arm_band_fractions(text: &str) -> Result<[f64; 2]> {
     let usage = "give two fractions, hanging then raised, e.g. 0.3,0.15";
@@ -398,9 +405,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         bail!("--materials none leaves nothing to drape: add --random-materials N");
     }
     // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
-    ArmClearance::new(args.arm_clearance).context("--arm-clearance")?;
+    ArmClearance::new(args.draw.arm_clearance).context("--arm-clearance")?;
     let mut pose_names = None;
     if let Some(bands) = args
+        .draw
         .arm_bands
         .as_deref()
         .filter(|_| args.poses.parse::<usize>().is_err())
@@ -416,13 +424,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             "--poses {n}: --motion makes at most {MAX_GENERATED_POSES} frames (about 5 s of \
              solver time each); for more pass a pose file"
         ),
-        Ok(n) => drawn_poses(
-            n,
-            args.seed,
-            args.motion,
-            args.arm_bands.as_deref(),
-            args.arm_clearance,
-        )?,
+        Ok(n) => args.draw.poses(n)?,
         Err(_) if args.poses.trim().eq_ignore_ascii_case("everyday") => {
             let suite = everyday_poses();
             pose_names = Some(suite.iter().map(|p| p.name).collect::<Vec<_>>());
@@ -541,9 +543,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                  before the brisk pace: `--motion gentle --arm-clearance 0`)",
                 args.out.display(),
                 args.poses,
-                args.motion,
-                args.seed,
-                args.arm_clearance
+                args.draw.motion,
+                args.draw.seed,
+                args.draw.arm_clearance
             ));
         }
         other => other?,
