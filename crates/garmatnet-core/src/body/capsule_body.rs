@@ -77,7 +77,8 @@ pub struct CapsuleBody {
 }
 
 impl CapsuleBody {
-    /// SMPL's mean neutral body (proportions of [`crate::body::smpl_capsules`]) on
+    /// SMPL's mean neutral body: a table of capsules with proportions close to SMPL's mean
+    /// neutral body in the T-pose, each placed relative to a joint, on
     /// [`Skeleton::smpl_neutral`].
     #[must_use]
     pub fn smpl_neutral() -> Self {

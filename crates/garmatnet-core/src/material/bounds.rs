@@ -48,7 +48,8 @@ pub struct MaterialBounds {
 }
 
 impl MaterialBounds {
-    /// The bounds of the network's material space (see the table in [`crate::material::space`]).
+    /// The bounds of the network's material space: each component's range, normalised
+    /// logarithmically to [0, 1] by [`crate::Material::to_normalized`].
     pub const STANDARD: MaterialBounds = MaterialBounds {
         min: [
             STRUCTURAL_MIN,

@@ -199,7 +199,7 @@ impl Material {
 impl FromStr for Material {
     type Err = Error;
 
-    /// A preset name (see [`crate::material::presets`]) or six comma-separated physical
+    /// A preset name (see [`presets`]) or six comma-separated physical
     /// values in ω's order, e.g. `"1200,900,0.5,0.4,12,0.09"`; the result is validated
     /// against the standard bounds (build stress-test materials with
     /// [`Material::physical`]).

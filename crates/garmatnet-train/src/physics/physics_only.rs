@@ -139,8 +139,11 @@ pub struct PhysicsOnlySummary {
     pub progress: NetSummary,
 }
 
-/// Trains both nets from the drape energy alone (see the [module](self) docs) and writes
-/// the model to `model_path`, resuming from its checkpoint with `options.resume`.
+/// Trains both nets from the drape energy alone and writes the model to `model_path`,
+/// resuming from its checkpoint with `options.resume`. Every step draws fresh (pose,
+/// fabric) pairs and lowers the normalised energy of the full prediction plus the fitting
+/// net's distance to the Laplacian-smoothed full prediction; early stopping watches the
+/// same loss on a fixed held-out batch.
 ///
 /// # Errors
 /// [`Error::InvalidConfig`] for invalid settings; [`Error::Checkpoint`] for a checkpoint of
