@@ -11,8 +11,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, ensure};
 use clap::Parser;
-use garmatnet::core::{Pose, Skeleton, read_poses};
-use garmatnet::sim::{Manifest, manifest_path};
+use garmatnet::core::Skeleton;
+use garmatnet::sim::read_poses_or_dataset;
 
 /// Command-line arguments.
 #[derive(Debug, Parser)]
@@ -33,18 +33,6 @@ fn parse_set(s: &str) -> Result<(String, PathBuf)> {
 /// The band edges, degrees of elevation in the chest's frame.
 const EDGES: [f64; 7] = [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0];
 
-/// A set's poses: its manifest's for a dataset directory, else the pose file's.
-fn poses_of(source: &PathBuf) -> Result<Vec<Pose>> {
-    if manifest_path(source).exists() {
-        Ok(Manifest::read(source)
-            .with_context(|| format!("reading the dataset in {}", source.display()))?
-            .spec
-            .poses)
-    } else {
-        read_poses(source).with_context(|| format!("reading poses from {}", source.display()))
-    }
-}
-
 fn main() -> Result<()> {
     let args = Args::parse();
     let skeleton = Skeleton::smpl_neutral();
@@ -58,7 +46,8 @@ fn main() -> Result<()> {
     );
     println!("|---|---:|{}---:|---:|", "---:|".repeat(bands.len()));
     for (name, source) in &args.sets {
-        let poses = poses_of(source)?;
+        let poses = read_poses_or_dataset(source)
+            .with_context(|| format!("{name}: reading the poses of {}", source.display()))?;
         ensure!(
             !poses.is_empty(),
             "{name}: {} holds no poses",
@@ -68,9 +57,9 @@ fn main() -> Result<()> {
         let (mut bent, mut tilt) = (0usize, 0.0_f64);
         for pose in &poses {
             let world = skeleton.world_transforms(pose);
-            let joints = skeleton.posed_joints(pose);
             for (shoulder, elbow) in [(16, 18), (17, 19)] {
-                let arm = (joints[elbow] - joints[shoulder]).normalize();
+                let arm = (world[elbow].translation.vector - world[shoulder].translation.vector)
+                    .normalize();
                 let local = world[9].rotation.inverse() * arm;
                 let elevation = local.y.clamp(-1.0, 1.0).asin().to_degrees();
                 let band = EDGES[1..]

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use garmatnet::core::{read_poses, write_poses_json};
-use garmatnet::sim::{Manifest, manifest_path};
+use garmatnet::core::write_poses_json;
+use garmatnet::sim::read_poses_or_dataset;
 
 use super::simulate::{MAX_GENERATED_POSES, PoseDrawArgs};
 
@@ -43,15 +43,8 @@ pub fn run(args: &PosesArgs) -> Result<()> {
     }
     let mut poses = match &args.after {
         None => Vec::new(),
-        Some(dir) if manifest_path(dir).exists() => {
-            Manifest::read(dir)
-                .with_context(|| format!("reading the dataset in {}", dir.display()))?
-                .spec
-                .poses
-        }
-        Some(file) => {
-            read_poses(file).with_context(|| format!("reading poses from {}", file.display()))?
-        }
+        Some(path) => read_poses_or_dataset(path)
+            .with_context(|| format!("--after: reading the poses of {}", path.display()))?,
     };
     let first = poses.len();
     poses.extend(args.draw.poses(args.count)?);

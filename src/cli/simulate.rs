@@ -407,30 +407,26 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator clamps).
     ArmClearance::new(args.draw.arm_clearance).context("--arm-clearance")?;
     let mut pose_names = None;
-    if let Some(bands) = args
-        .draw
-        .arm_bands
-        .as_deref()
-        .filter(|_| args.poses.parse::<usize>().is_err())
-    {
+    let count = args.poses.parse::<usize>().ok();
+    if let Some(bands) = args.draw.arm_bands.as_deref().filter(|_| count.is_none()) {
         bail!(
             "--arm-bands {bands} sets how independent poses are drawn: give --poses N, or \
              leave it out"
         );
     }
-    let poses = match args.poses.parse::<usize>() {
-        Ok(0) => bail!("--poses 0: ask for at least one pose"),
-        Ok(n) if n > MAX_GENERATED_POSES => bail!(
+    let poses = match count {
+        Some(0) => bail!("--poses 0: ask for at least one pose"),
+        Some(n) if n > MAX_GENERATED_POSES => bail!(
             "--poses {n}: --motion makes at most {MAX_GENERATED_POSES} frames (about 5 s of \
              solver time each); for more pass a pose file"
         ),
-        Ok(n) => args.draw.poses(n)?,
-        Err(_) if args.poses.trim().eq_ignore_ascii_case("everyday") => {
+        Some(n) => args.draw.poses(n)?,
+        None if args.poses.trim().eq_ignore_ascii_case("everyday") => {
             let suite = everyday_poses();
             pose_names = Some(suite.iter().map(|p| p.name).collect::<Vec<_>>());
             suite.into_iter().map(|p| p.pose).collect()
         }
-        Err(_) => read_poses(std::path::Path::new(&args.poses))
+        None => read_poses(std::path::Path::new(&args.poses))
             .with_context(|| format!("reading poses from {}", args.poses))?,
     };
     let sequence = match &args.solver {
@@ -532,7 +528,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Err(e)
             if resuming
                 && is_spec_mismatch(&e, garmatnet::sim::SpecField::Poses)
-                && args.poses.parse::<usize>().is_ok() =>
+                && count.is_some() =>
         {
             return Err(e).context(format!(
                 "{} was made with other poses than `--poses {} --motion {} --seed {} \

@@ -15,8 +15,8 @@ pub use dataset::generator::{
 };
 pub use dataset::manifest::{
     BodyInfo, DATASET_FORMAT_VERSION, DatasetSpec, GROUND_TRUTH_REVISION, Manifest, MaterialEntry,
-    SamplePlan, SampleRecord, SampleStats, SmoothingInfo, manifest_path, revision_label,
-    sample_stem,
+    SamplePlan, SampleRecord, SampleStats, SmoothingInfo, manifest_path, read_poses_or_dataset,
+    revision_label, sample_stem,
 };
 pub use dataset::reader::{
     DatasetReader, DatasetReport, SOUND_ASYMMETRY_M, SOUND_STRETCH, Summary, check,

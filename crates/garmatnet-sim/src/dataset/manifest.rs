@@ -416,6 +416,19 @@ pub fn manifest_path(dir: &Path) -> PathBuf {
     dir.join("manifest.json")
 }
 
+/// The poses at `path`: a dataset directory's (its manifest's, in order), else a pose
+/// file's ([`garmatnet_core::read_poses`]: .json, .npz or .npy).
+///
+/// # Errors
+/// As [`Manifest::read`] for a dataset directory, as [`garmatnet_core::read_poses`] otherwise.
+pub fn read_poses_or_dataset(path: &Path) -> Result<Vec<Pose>> {
+    if manifest_path(path).exists() {
+        Ok(Manifest::read(path)?.spec.poses)
+    } else {
+        garmatnet_core::read_poses(path)
+    }
+}
+
 /// The directory name of sample (`material`, `pose`): `m{material:03}_p{pose:04}`, e.g.
 /// `m003_p0123` (more digits when the indices need them).
 #[must_use]

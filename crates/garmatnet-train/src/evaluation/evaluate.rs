@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use burn::prelude::*;
-use garmatnet_core::{DisplacementFrame, SignedDistance, Vec3};
+use garmatnet_core::{DisplacementFrame, Pose, SignedDistance, Vec3};
 use garmatnet_model::material_range::{TrainingFabric, nearest};
 use garmatnet_model::{Detail, GarMatNetModel, push_out, select_device};
-use garmatnet_sim::{MaterialEntry, MirrorMap, POSE_NAMES_FILE, everyday_poses};
+use garmatnet_sim::{DatasetSpec, MaterialEntry, MirrorMap, POSE_NAMES_FILE, everyday_poses};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{SampleKey, TrainingDataset};
@@ -219,15 +219,11 @@ pub fn evaluate(inputs: &EvalInputs, config: &EvalConfig) -> Result<Report> {
         .iter()
         .filter(|(k, _)| comparison.binary_search(k).is_ok())
         .map(|(k, e)| SampleErrors {
-            material: spec.materials[k.material].name.clone(),
-            pose: k.pose,
-            frame: spec.frames[k.pose],
-            pose_name: None,
-            garmatnet: e.means_mm(),
             baseline: baseline_errors
                 .binary_search_by_key(k, |(bk, _)| *bk)
                 .ok()
                 .map(|i| baseline_errors[i].1.means_mm()),
+            ..sample_errors(spec, *k, e, None)
         })
         .collect();
 
@@ -376,23 +372,7 @@ fn held_out_set(
                 .any(|t| t.name == m.name && t.omega == m.omega_normalized)
         })
         .collect();
-    // The poses' names, so the per-pose rows say which pose they are: the names the
-    // dataset was made with (`simulate --poses everyday` writes them), else those of
-    // today's everyday poses it holds bit for bit.
-    let suite = everyday_poses();
-    let written: Option<Vec<String>> = std::fs::read(dir.join(POSE_NAMES_FILE))
-        .ok()
-        .and_then(|bytes| serde_json::from_slice::<Vec<String>>(&bytes).ok())
-        .filter(|names| names.len() == set.spec().poses.len());
-    let names: Vec<Option<&str>> = match &written {
-        Some(names) => names.iter().map(|n| Some(n.as_str())).collect(),
-        None => set
-            .spec()
-            .poses
-            .iter()
-            .map(|p| suite.iter().find(|e| e.pose == *p).map(|e| e.name))
-            .collect(),
-    };
+    let names = pose_names(dir, &set.spec().poses);
     let mut errors = Vec::new();
     let mut per_sample = Vec::new();
     let mut quality = QualityAccumulator::new(set.garment(), set.spec())?;
@@ -404,16 +384,9 @@ fn held_out_set(
         let preds = predict_garmatnet(model, &set, keys, device, mirror)?;
         for (i, (&key, pred)) in keys.iter().zip(preds).enumerate() {
             let truth = set.truth(key)?;
-            errors.push((key.material, vertex_errors(&truth, &pred)));
-            let e = &errors[errors.len() - 1].1;
-            per_sample.push(SampleErrors {
-                material: set.spec().materials[key.material].name.clone(),
-                pose: key.pose,
-                frame: set.spec().frames[key.pose],
-                pose_name: names[key.pose].map(str::to_owned),
-                garmatnet: e.means_mm(),
-                baseline: None,
-            });
+            let e = vertex_errors(&truth, &pred);
+            per_sample.push(sample_errors(set.spec(), key, &e, names[key.pose].clone()));
+            errors.push((key.material, e));
             let pose = &set.spec().poses[key.pose];
             let posed = set.body().pose(pose);
             let mut garment = assemble(&truth.body_points, &pred);
@@ -472,6 +445,49 @@ fn held_out_set(
         symmetry: symmetry.finish(),
         per_sample,
     })
+}
+
+/// One sample's row of a report: its material, pose and GarMatNet's mean errors (no
+/// baseline).
+fn sample_errors(
+    spec: &DatasetSpec,
+    key: SampleKey,
+    errors: &VertexErrors,
+    pose_name: Option<String>,
+) -> SampleErrors {
+    SampleErrors {
+        material: spec.materials[key.material].name.clone(),
+        pose: key.pose,
+        frame: spec.frames[key.pose],
+        pose_name,
+        garmatnet: errors.means_mm(),
+        baseline: None,
+    }
+}
+
+/// The names of a held-out set's poses, so its per-pose rows say which pose they are: the
+/// names the dataset was made with (`simulate --poses everyday` writes them to `dir`), else
+/// those of today's everyday poses it holds bit for bit.
+fn pose_names(dir: &Path, poses: &[Pose]) -> Vec<Option<String>> {
+    let written = std::fs::read(dir.join(POSE_NAMES_FILE))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<Vec<String>>(&bytes).ok())
+        .filter(|names| names.len() == poses.len());
+    match written {
+        Some(names) => names.into_iter().map(Some).collect(),
+        None => {
+            let suite = everyday_poses();
+            poses
+                .iter()
+                .map(|p| {
+                    suite
+                        .iter()
+                        .find(|e| e.pose == *p)
+                        .map(|e| e.name.to_owned())
+                })
+                .collect()
+        }
+    }
 }
 
 /// Sums [`MirrorSymmetry`] over the samples at symmetric poses.

@@ -1,5 +1,6 @@
 //! `report.md`: the evaluation [`Report`] as Markdown tables, all errors in millimetres.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::evaluation::report::{
@@ -414,9 +415,10 @@ fn held_out_material_table(s: &mut String, set: &str, rows: &[MaterialErrors]) {
 /// GarMatNet's error per pose of a held-out set, averaged over the set's fabrics at that
 /// pose, with the fabric it errs most at there: which poses the model handles worst.
 fn held_out_pose_table(s: &mut String, set: &str, rows: &[SampleErrors]) {
-    let mut poses: Vec<usize> = rows.iter().map(|r| r.pose).collect();
-    poses.sort_unstable();
-    poses.dedup();
+    let mut poses: BTreeMap<usize, Vec<&SampleErrors>> = BTreeMap::new();
+    for r in rows {
+        poses.entry(r.pose).or_default().push(r);
+    }
     if poses.len() < 2 {
         return;
     }
@@ -429,8 +431,7 @@ fn held_out_pose_table(s: &mut String, set: &str, rows: &[SampleErrors]) {
         "| Pose | Frame | Fabrics | Generally-fitting | Locally-detailed | Whole | Worst fabric |"
     );
     let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---|");
-    for pose in poses {
-        let at: Vec<&SampleErrors> = rows.iter().filter(|r| r.pose == pose).collect();
+    for (pose, at) in poses {
         let n = at.len() as f64;
         let mean = |f: fn(&PartErrors) -> f64| at.iter().map(|r| f(&r.garmatnet)).sum::<f64>() / n;
         let worst = at
