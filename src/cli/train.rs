@@ -71,8 +71,9 @@ pub struct TrainOptions {
     /// (pose, fabric) pairs per step of the physics term (default 8).
     #[arg(long)]
     pub physics_batch: Option<usize>,
-    /// The poses of the physics term and of `--physics-only`: `sampler[:SEED]` (default,
-    /// seed 1: the independent-pose sampler of `simulate --poses N`) or
+    /// The poses of the physics term and of `--physics-only`: `sampler[:SEED[:H,R]]`
+    /// (default, seed 1: the independent-pose sampler of `simulate --poses N`; `H,R` its
+    /// fractions of arms hanging and raised, as `simulate --arm-bands`) or
     /// `joint-limits[:AMPLITUDE]` (each joint uniform within that fraction of its range).
     #[arg(long, value_name = "KIND[:VALUE]")]
     pub physics_poses: Option<String>,

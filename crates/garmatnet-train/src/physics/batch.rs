@@ -73,11 +73,19 @@ impl SampledPoses {
     /// # Errors
     /// As [`PoseSampler::new`].
     pub fn new(seed: u64) -> Result<Self> {
+        Self::with_config(PoseSamplerConfig {
+            seed,
+            ..PoseSamplerConfig::default()
+        })
+    }
+
+    /// The sampler with `config` (e.g. another share of hanging and raised arms).
+    ///
+    /// # Errors
+    /// As [`PoseSampler::new`]: fractions outside [0, 1] or summing past 1, among others.
+    pub fn with_config(config: PoseSamplerConfig) -> Result<Self> {
         Ok(Self {
-            sampler: PoseSampler::new(PoseSamplerConfig {
-                seed,
-                ..PoseSamplerConfig::default()
-            })?,
+            sampler: PoseSampler::new(config)?,
         })
     }
 }
@@ -97,6 +105,11 @@ pub enum PhysicsPoses {
     Sampler {
         /// The sampler's seed.
         seed: u64,
+        /// The fractions of arms drawn hanging and raised
+        /// ([`PoseSamplerConfig::hanging_fraction`], [`PoseSamplerConfig::raised_fraction`]);
+        /// `None` keeps the datasets' default, as `simulate --arm-bands` does.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        arm_bands: Option<[Real; 2]>,
     },
     /// Each joint uniformly within `amplitude` of its range ([`JointLimitsPoses`]).
     JointLimits {
@@ -107,7 +120,10 @@ pub enum PhysicsPoses {
 
 impl Default for PhysicsPoses {
     fn default() -> Self {
-        Self::Sampler { seed: 1 }
+        Self::Sampler {
+            seed: 1,
+            arm_bands: None,
+        }
     }
 }
 
@@ -115,17 +131,31 @@ impl PhysicsPoses {
     /// Checks the settings.
     ///
     /// # Errors
-    /// [`Error::InvalidConfig`] for an amplitude outside `[0, 1]`.
+    /// [`Error::InvalidConfig`] for an amplitude outside `[0, 1]`, or arm fractions outside
+    /// `[0, 1]` or summing past 1.
     pub fn validate(&self) -> Result<()> {
-        if let Self::JointLimits { amplitude } = self
-            && !(0.0..=1.0).contains(amplitude)
-        {
-            return Err(Error::InvalidConfig(format!(
-                "physics pose amplitude {amplitude} must lie in [0, 1] (a fraction of each \
-                 joint's range)"
-            )));
+        match self {
+            Self::JointLimits { amplitude } if !(0.0..=1.0).contains(amplitude) => {
+                Err(Error::InvalidConfig(format!(
+                    "physics pose amplitude {amplitude} must lie in [0, 1] (a fraction of each \
+                     joint's range)"
+                )))
+            }
+            Self::Sampler {
+                arm_bands: Some([hanging, raised]),
+                ..
+            } if !((0.0..=1.0).contains(hanging)
+                && (0.0..=1.0).contains(raised)
+                && hanging + raised <= 1.0) =>
+            {
+                Err(Error::InvalidConfig(format!(
+                    "physics pose arm bands {hanging},{raised}: the fractions of arms hanging \
+                     and raised each lie in [0, 1] and make at most 1 together (the rest lie \
+                     between)"
+                )))
+            }
+            _ => Ok(()),
         }
-        Ok(())
     }
 
     /// The source of these poses.
@@ -135,7 +165,16 @@ impl PhysicsPoses {
     pub fn source(&self) -> Result<Box<dyn PoseSource>> {
         self.validate()?;
         Ok(match *self {
-            Self::Sampler { seed } => Box::new(SampledPoses::new(seed)?),
+            Self::Sampler { seed, arm_bands } => {
+                let mut config = PoseSamplerConfig {
+                    seed,
+                    ..PoseSamplerConfig::default()
+                };
+                if let Some([hanging, raised]) = arm_bands {
+                    (config.hanging_fraction, config.raised_fraction) = (hanging, raised);
+                }
+                Box::new(SampledPoses::with_config(config)?)
+            }
             Self::JointLimits { amplitude } => Box::new(JointLimitsPoses {
                 limits: JointLimits::default(),
                 amplitude,
@@ -147,8 +186,9 @@ impl PhysicsPoses {
 impl std::str::FromStr for PhysicsPoses {
     type Err = Error;
 
-    /// `sampler`, `sampler:SEED`, `joint-limits` or `joint-limits:AMPLITUDE` (defaults: seed
-    /// 1, amplitude 0.5).
+    /// `sampler`, `sampler:SEED`, `sampler:SEED:H,R` (the fractions of arms hanging and
+    /// raised, as `simulate --arm-bands H,R`), `joint-limits` or `joint-limits:AMPLITUDE`
+    /// (defaults: seed 1, the datasets' arm bands, amplitude 0.5).
     fn from_str(s: &str) -> Result<Self> {
         let (kind, value) = match s.trim().split_once(':') {
             Some((k, v)) => (k.trim(), Some(v.trim())),
@@ -156,16 +196,38 @@ impl std::str::FromStr for PhysicsPoses {
         };
         let bad = |what: &str| {
             Error::InvalidConfig(format!(
-                "physics poses `{s}`: {what}; use sampler, sampler:SEED, joint-limits or \
-                 joint-limits:AMPLITUDE"
+                "physics poses `{s}`: {what}; use sampler, sampler:SEED, sampler:SEED:H,R, \
+                 joint-limits or joint-limits:AMPLITUDE"
             ))
         };
         let poses = match kind {
-            "sampler" => Self::Sampler {
-                seed: value.map_or(Ok(1), |v| {
-                    v.parse().map_err(|_| bad("the seed is not a whole number"))
-                })?,
-            },
+            "sampler" => {
+                let (seed, bands) = match value.map(|v| v.split_once(':')) {
+                    None => (None, None),
+                    Some(None) => (value, None),
+                    Some(Some((seed, bands))) => (Some(seed.trim()), Some(bands)),
+                };
+                let arm_bands = match bands {
+                    None => None,
+                    Some(text) => {
+                        let values = text
+                            .split(',')
+                            .map(|v| v.trim().parse::<Real>())
+                            .collect::<std::result::Result<Vec<_>, _>>()
+                            .map_err(|_| bad("the arm bands are not two numbers H,R"))?;
+                        let [hanging, raised] = values[..] else {
+                            return Err(bad("the arm bands are not two numbers H,R"));
+                        };
+                        Some([hanging, raised])
+                    }
+                };
+                Self::Sampler {
+                    seed: seed.map_or(Ok(1), |v| {
+                        v.parse().map_err(|_| bad("the seed is not a whole number"))
+                    })?,
+                    arm_bands,
+                }
+            }
             "joint-limits" => Self::JointLimits {
                 amplitude: value.map_or(Ok(0.5), |v| {
                     v.parse().map_err(|_| bad("the amplitude is not a number"))
@@ -342,19 +404,70 @@ mod tests {
         );
         assert_eq!(
             "sampler:7".parse::<PhysicsPoses>().unwrap(),
-            PhysicsPoses::Sampler { seed: 7 }
+            PhysicsPoses::Sampler {
+                seed: 7,
+                arm_bands: None
+            }
+        );
+        assert_eq!(
+            "sampler:2: 0.1, 0.15".parse::<PhysicsPoses>().unwrap(),
+            PhysicsPoses::Sampler {
+                seed: 2,
+                arm_bands: Some([0.1, 0.15])
+            }
         );
         assert_eq!(
             " joint-limits : 0.3 ".parse::<PhysicsPoses>().unwrap(),
             PhysicsPoses::JointLimits { amplitude: 0.3 }
         );
-        for bad in ["walk", "sampler:x", "joint-limits:2", "joint-limits:nan"] {
+        for bad in [
+            "walk",
+            "sampler:x",
+            "joint-limits:2",
+            "joint-limits:nan",
+            "sampler:1:0.5",
+            "sampler:1:a,b",
+            "sampler:1:0.7,0.4",
+            "sampler:1:-0.1,0.2",
+            "sampler:1:nan,0.2",
+        ] {
             let e = bad.parse::<PhysicsPoses>().unwrap_err().to_string();
             assert!(
-                e.contains("sampler:SEED") || e.contains("[0, 1]"),
+                e.contains("sampler:SEED:H,R") || e.contains("[0, 1]"),
                 "{bad}: {e}"
             );
         }
+        // The default bands are left out of a saved config, so older configs read the same.
+        let json = serde_json::to_value(PhysicsPoses::default()).unwrap();
+        assert!(json.get("arm_bands").is_none(), "{json}");
+        assert_eq!(
+            serde_json::from_value::<PhysicsPoses>(json).unwrap(),
+            PhysicsPoses::default()
+        );
+    }
+
+    /// Other arm bands draw other poses from the same stream; the default bands draw the
+    /// datasets' sampler's poses.
+    #[test]
+    fn sampler_arm_bands_change_the_poses_drawn() {
+        let draw = |poses: PhysicsPoses| {
+            let source = poses.source().unwrap();
+            let mut rng = SplitMix64::new(5);
+            (0..4)
+                .map(|_| source.next_pose(&mut rng).unwrap())
+                .collect::<Vec<_>>()
+        };
+        let default = draw(PhysicsPoses::default());
+        let explicit = draw(PhysicsPoses::Sampler {
+            seed: 1,
+            arm_bands: Some([
+                garmatnet_sim::DEFAULT_HANGING_FRACTION,
+                garmatnet_sim::DEFAULT_RAISED_FRACTION,
+            ]),
+        });
+        assert_eq!(default, explicit);
+        let middle = draw("sampler:1:0,0".parse().unwrap());
+        assert_ne!(default, middle);
     }
 
     /// The sampler's poses are the datasets' (no part passes through another, arms hang
