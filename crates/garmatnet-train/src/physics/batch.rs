@@ -9,7 +9,10 @@ use garmatnet_core::{
     CapsuleBody, DisplacementFrame, Garment, JointLimits, MATERIAL_DIM, Material, POSE_DIM, Pose,
     PosedBody, Real, SplitMix64,
 };
-use garmatnet_sim::{DrapeSettings, PoseSampler, PoseSamplerConfig, cloth_from_garment};
+use garmatnet_sim::{
+    DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, DrapeSettings, PoseSampler,
+    PoseSamplerConfig, cloth_from_garment,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -166,14 +169,14 @@ impl PhysicsPoses {
         self.validate()?;
         Ok(match *self {
             Self::Sampler { seed, arm_bands } => {
-                let mut config = PoseSamplerConfig {
+                let [hanging_fraction, raised_fraction] =
+                    arm_bands.unwrap_or([DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION]);
+                Box::new(SampledPoses::with_config(PoseSamplerConfig {
                     seed,
+                    hanging_fraction,
+                    raised_fraction,
                     ..PoseSamplerConfig::default()
-                };
-                if let Some([hanging, raised]) = arm_bands {
-                    (config.hanging_fraction, config.raised_fraction) = (hanging, raised);
-                }
-                Box::new(SampledPoses::with_config(config)?)
+                })?)
             }
             Self::JointLimits { amplitude } => Box::new(JointLimitsPoses {
                 limits: JointLimits::default(),
@@ -460,10 +463,7 @@ mod tests {
         let default = draw(PhysicsPoses::default());
         let explicit = draw(PhysicsPoses::Sampler {
             seed: 1,
-            arm_bands: Some([
-                garmatnet_sim::DEFAULT_HANGING_FRACTION,
-                garmatnet_sim::DEFAULT_RAISED_FRACTION,
-            ]),
+            arm_bands: Some([DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION]),
         });
         assert_eq!(default, explicit);
         let middle = draw("sampler:1:0,0".parse().unwrap());
