@@ -1,12 +1,15 @@
 //! Run: `cargo run --release --example face_depth -- DATASET_DIR ...`
 //!
 //! How deep the true drapes' triangles reach into the body between their vertices.
-//! `dataset check` measures penetration at the vertices (the solver's contact and its final
-//! projection act there); a triangle whose corners lie on the body surface can still cut
-//! under it where the surface curves or where two body parts press together. For every
-//! sample this takes the signed distance to the posed body at each triangle's centroid and
-//! edge midpoints and keeps the deepest; it prints, per pose and per dataset, the mean and
-//! largest of those depths and how many samples reach deeper than 1 mm.
+//! The solver's contact acts at the vertices; a triangle whose corners lie on the body
+//! surface can still cut under it where the surface curves or where two body parts press
+//! together. Since ground-truth revision 4 the recorded drape's projection pushes a grid of
+//! points across each triangle out too (quarters of its edges,
+//! `garmatnet_core::FACE_DIVISIONS`); this checks twice as finely, between those points as
+//! well. For every sample it takes the signed distance to the posed body at 43 points of each
+//! triangle (the points of barycentric coordinates in eighths other than the corners, and the
+//! centroid) and keeps the deepest; it prints, per pose and per dataset, the mean and largest
+//! of those depths and how many samples reach deeper than 1 mm.
 
 use std::collections::BTreeMap;
 
@@ -25,6 +28,14 @@ struct Args {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    // Barycentric weights in eighths, corners left out (the vertices are pushed out on
+    // their own), and the centroid.
+    let mut weights: Vec<[f64; 3]> = (0..=8_u8)
+        .flat_map(|i| (0..=8 - i).map(move |j| [i, j, 8 - i - j]))
+        .filter(|w| !w.contains(&8))
+        .map(|w| w.map(|k| f64::from(k) / 8.0))
+        .collect();
+    weights.push([1.0 / 3.0; 3]);
     for dir in &args.datasets {
         let set = TrainingDataset::open(dir, true)?;
         let faces = &set.garment().rest.faces;
@@ -36,12 +47,8 @@ fn main() -> Result<()> {
             let mut deepest = 0.0_f64;
             for f in faces {
                 let [a, b, c] = f.map(|i| x[i as usize]);
-                for p in [
-                    (a + b + c) / 3.0,
-                    (a + b) / 2.0,
-                    (b + c) / 2.0,
-                    (c + a) / 2.0,
-                ] {
+                for w in &weights {
+                    let p = a * w[0] + b * w[1] + c * w[2];
                     deepest = deepest.max(-posed.distance(&p));
                 }
             }

@@ -262,7 +262,7 @@ fn canonical_drapes_do_not_depend_on_dataset_order_shard_or_threads() -> anyhow:
     assert_ne!(simulated(&a, 1, 0), simulated(&a, 1, 2));
     let manifest = Manifest::read(&a)?;
     assert_eq!(manifest.spec.protocol, DrapeProtocol::Canonical);
-    assert_eq!(manifest.spec.ground_truth_revision, Some(3));
+    assert_eq!(manifest.spec.ground_truth_revision, Some(4));
     Ok(())
 }
 

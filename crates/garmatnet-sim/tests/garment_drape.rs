@@ -498,9 +498,10 @@ fn a_frame_stepper_refuses_positions_it_cannot_step_from() {
 
 /// A stiff fabric pressed against the body by its own tension (Trim Fusible Rigid on the
 /// coarse shirt, three of seed 0's most extreme poses): the plain 300 N/m penalty lets it
-/// settle more than a centimetre inside the body before the final projection moves it out
-/// (16.3 mm measured); the penalty's hardening inside the body keeps it within a few
-/// millimetres (6.5 mm).
+/// settle centimetres inside the body before the final projection moves it out (41 mm
+/// measured, and so deep that the projection leaves its triangles 4.3 mm under the body
+/// between their vertices); the penalty's hardening inside the body keeps it within a few
+/// millimetres (7.1 mm), and the projection then clears every triangle.
 #[test]
 fn the_penalty_hardening_keeps_a_stiff_fabric_from_sinking_into_the_body() {
     let (body, garment) = coarse();
@@ -523,22 +524,24 @@ fn the_penalty_hardening_keeps_a_stiff_fabric_from_sinking_into_the_body() {
             |_, _, _| Ok(()),
         )
         .unwrap();
-        assert!(
-            stats
-                .iter()
-                .all(|s| s.converged && s.max_penetration <= 1e-3)
-        );
-        stats
+        assert!(stats.iter().all(|s| s.converged));
+        let depth = stats
             .iter()
             .map(|s| s.max_depth_before_projection)
-            .fold(0.0, Real::max)
+            .fold(0.0, Real::max);
+        let after = stats.iter().map(|s| s.max_penetration).fold(0.0, Real::max);
+        (depth, after)
     };
-    let plain = deepest(0.0);
-    let hardened = deepest(SequenceSettings::default().drape.contact_hardening);
+    let (plain, _) = deepest(0.0);
+    let (hardened, hardened_after) = deepest(SequenceSettings::default().drape.contact_hardening);
     assert!(plain > 0.010, "the scene presses the cloth in: {plain} m");
     assert!(
         hardened < 0.008,
         "hardened: {hardened} m deep (plain {plain} m)"
+    );
+    assert!(
+        hardened_after <= 1e-3,
+        "{hardened_after} m deep after the projection"
     );
 }
 

@@ -6,6 +6,7 @@ pub(crate) mod capsule;
 pub(crate) mod capsule_body;
 pub(crate) mod capsule_union;
 pub(crate) mod joints;
+pub(crate) mod mesh_push;
 pub(crate) mod posable_body;
 pub(crate) mod pose;
 pub(crate) mod sdf;

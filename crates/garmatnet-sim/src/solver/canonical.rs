@@ -21,7 +21,8 @@ use crate::error::Result;
 use crate::solver::drape_settings::DrapeSettings;
 use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
 use crate::solver::garment_drape::{
-    FrameStepper, SequenceSettings, cloth_from_garment, settle_rest_drape, surface_steps,
+    FrameStepper, SequenceSettings, cloth_from_garment, record_drape, settle_rest_drape,
+    surface_steps,
 };
 
 /// How a dataset's samples are draped.
@@ -109,6 +110,7 @@ pub struct CanonicalDraper {
     rest_drape: Vec<Vec3>,
     rest_stats: DrapeStats,
     settings: SequenceSettings,
+    faces: Vec<[u32; 3]>,
 }
 
 impl CanonicalDraper {
@@ -142,6 +144,7 @@ impl CanonicalDraper {
             rest_drape,
             rest_stats,
             settings: settings.clone(),
+            faces: garment.rest.faces.clone(),
         })
     }
 
@@ -191,8 +194,9 @@ impl CanonicalDraper {
 
     /// The sample at `pose`: the rest drape carried along [`CanonicalDraper::path`], each
     /// intermediate pose followed with [`SequenceSettings::intermediate_iterations`] Newton
-    /// iterations, then converged at `pose`. The result is rounded to f32 (the precision
-    /// datasets store), and depends on nothing but the garment, body, fabric, settings and
+    /// iterations, then converged at `pose`, and its triangles pushed out of the body between
+    /// their vertices as every recorded drape's are (ground-truth revision 4). The result is
+    /// rounded to f32 (the precision datasets store), and depends on nothing but the garment, body, fabric, settings and
     /// `pose`: not on earlier calls.
     ///
     /// # Errors
@@ -221,9 +225,15 @@ impl CanonicalDraper {
             }
             shirt.set_settings(&full)?;
         }
-        let stats = shirt.step(last)?;
-        let mut positions = shirt.into_positions();
-        round_to_f32(&mut positions);
+        let mut stats = shirt.step(last)?;
+        let mut positions = shirt.positions().to_vec();
+        record_drape(
+            &mut positions,
+            &self.faces,
+            shirt.posed_body(),
+            self.solver.model(),
+            &mut stats,
+        )?;
         Ok((positions, stats))
     }
 }

@@ -4,7 +4,8 @@
 
 use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{
-    CapsuleBody, Error as CoreError, Garment, Material, Pose, PosedBody, Real, SpringKind, Vec3,
+    CapsuleBody, Error as CoreError, Garment, Material, Pose, PosedBody, Real, SignedDistance,
+    SpringKind, Vec3, push_mesh_outside,
 };
 use serde::{Deserialize, Serialize};
 
@@ -511,15 +512,51 @@ pub fn drape_sequence(
             }
             garment_on_body.set_settings(&full)?;
         }
-        let stats = garment_on_body.step(last)?;
-        for p in garment_on_body.positions_mut() {
-            *p = p.map(|c| f64::from(c as f32));
-        }
+        let mut stats = garment_on_body.step(last)?;
+        // The walk goes on from the drape as recorded (pushed out, rounded to f32), so a
+        // walk resumed from its last sample takes the same path.
+        let posed = garment_on_body.posed_body().clone();
+        record_drape(
+            garment_on_body.positions_mut(),
+            &garment.rest.faces,
+            &posed,
+            &model,
+            &mut stats,
+        )?;
         on_sample(index, garment_on_body.positions(), &stats)?;
         all.push(stats);
         current = target.clone();
     }
     Ok(all)
+}
+
+/// The last step of every recorded drape (ground-truth revision 4): `positions`, whose free
+/// vertices the solver's final projection left outside `body`, moved until each of the
+/// garment's triangles (`faces`) has a grid of points across it outside too
+/// ([`push_mesh_outside`]: twelve points and the centroid), then rounded to f32 as datasets store them; `stats` then record
+/// the penetration at those points and the strain of `model`'s springs there. The solver's
+/// contact acts at the vertices, and where a convex body part presses on the cloth (a forearm
+/// on the chest) the triangles between them cut under it by up to 5 mm. The canonical
+/// protocol applies it to the drape at the target pose only, not along its path, so its
+/// drapes stay where revision 3's were except at such triangles; a walk goes on from each
+/// recorded drape, as a walk resumed from its last sample must.
+///
+/// # Errors
+/// As [`ClothModel::max_strain`] for positions of the wrong length.
+pub(crate) fn record_drape(
+    positions: &mut [Vec3],
+    faces: &[[u32; 3]],
+    body: &impl SignedDistance,
+    model: &ClothModel,
+    stats: &mut DrapeStats,
+) -> Result<()> {
+    let pushed = push_mesh_outside(positions, faces, body, &[]);
+    for p in positions.iter_mut() {
+        *p = p.map(|c| f64::from(c as f32));
+    }
+    stats.max_penetration = pushed.deepest;
+    stats.max_strain = model.max_strain(positions)?;
+    Ok(())
 }
 
 /// Newton iterations of the rest drape's frictionless landing ([`settle_at_rest`]).
