@@ -53,8 +53,8 @@ struct Args {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/drape")]
     out: PathBuf,
-    /// Also run the simulator for every input (by the canonical protocol, as a revision-3
-    /// dataset drapes it): error (mm), speed-up, side-by-side render.
+    /// Also run the simulator for every input (by the canonical protocol, as a dataset
+    /// drapes it): error (mm), speed-up, side-by-side render.
     #[arg(long)]
     compare: bool,
     /// Frames of the built-in motion to predict for the first fabric and write as one

@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use anyhow::Result;
 use clap::Parser;
-use garmatnet::core::SignedDistance;
+use garmatnet::core::{FACE_DIVISIONS, SignedDistance, triangle_samples};
 use garmatnet::train::TrainingDataset;
 
 /// Command-line arguments.
@@ -28,14 +28,8 @@ struct Args {
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    // Barycentric weights in eighths, corners left out (the vertices are pushed out on
-    // their own), and the centroid.
-    let mut weights: Vec<[f64; 3]> = (0..=8_u8)
-        .flat_map(|i| (0..=8 - i).map(move |j| [i, j, 8 - i - j]))
-        .filter(|w| !w.contains(&8))
-        .map(|w| w.map(|k| f64::from(k) / 8.0))
-        .collect();
-    weights.push([1.0 / 3.0; 3]);
+    // Twice as fine as the final push's grid: eighths, corners left out, and the centroid.
+    let weights = triangle_samples(2 * FACE_DIVISIONS);
     for dir in &args.datasets {
         let set = TrainingDataset::open(dir, true)?;
         let faces = &set.garment().rest.faces;

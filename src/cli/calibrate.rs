@@ -39,7 +39,7 @@ pub struct CalibrateArgs {
     /// A pose file (.json, .npz, .npy) whose --frames are the reference poses. Default: the
     /// independent poses of the shipped model's dataset (`simulate --poses 200 --seed 0`).
     /// Reference poses should be poses the model was trained on. Each is draped on its own
-    /// by the canonical protocol, as a revision-3 dataset drapes it.
+    /// by the canonical protocol, as a dataset drapes it.
     #[arg(long)]
     pub pose: Option<String>,
     /// The reference poses, by index: `START..END` (END excluded), `START..=END` or `START..`.

@@ -71,7 +71,7 @@ pub struct DrapeArgs {
     pub out: Vec<PathBuf>,
     /// Also drape with the simulator, print the error (mm) and speed-up, and write
     /// `<out>_compare.png` next to each PNG output (prediction | simulation | error map).
-    /// One pose is draped by the canonical protocol, as a revision-3 dataset drapes it;
+    /// One pose is draped by the canonical protocol, as a dataset drapes it;
     /// `--frames` are walked in order, as an animation moves.
     #[arg(long)]
     pub compare: bool,

@@ -49,7 +49,7 @@ pub struct SimulateArgs {
     /// How `--poses N` draws its poses.
     #[command(flatten)]
     pub draw: PoseDrawArgs,
-    /// How each sample is draped: `canonical` (default; ground-truth revision 3: each sample
+    /// How each sample is draped: `canonical` (default; ground-truth revisions 3 and 4: each sample
     /// on its own, from the fabric's rest drape along one path from the rest pose, so a drape
     /// depends on its pose and fabric alone) or `walk` (each pose from the previous one of
     /// the sequence, as in revisions 1 and 2; for animations).

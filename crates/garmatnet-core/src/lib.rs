@@ -23,7 +23,9 @@ pub use body::capsule_union::{
     DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, PINCH_HALF_WIDTH, PINCH_SMOOTHING,
     SHOULDER_BLEND_REACH,
 };
-pub use body::mesh_push::{FACE_DIVISIONS, MESH_PUSH_ROUNDS, MeshPush, push_mesh_outside};
+pub use body::mesh_push::{
+    FACE_DIVISIONS, MESH_PUSH_ROUNDS, MeshPush, push_mesh_outside, triangle_samples,
+};
 pub use body::posable_body::PosableBody;
 pub use body::pose::{
     A_POSE_SHOULDER_ANGLE, JointLimits, MAX_POSE_COMPONENT, POSE_DIM, Pose, SMPLH_POSE_DIM,

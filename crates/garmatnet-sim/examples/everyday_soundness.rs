@@ -1,6 +1,6 @@
 //! Run: `cargo run -p garmatnet-sim --release --example everyday_soundness -- [coarse|default|paper]`
 //!
-//! Every preset's fitted T-shirt draped by the canonical protocol (revision 3) at every pose
+//! Every preset's fitted T-shirt draped by the canonical protocol (revision 4) at every pose
 //! of the everyday suite: one row per (pose, preset) with the largest structural or shear
 //! stretch (sound drapes stay below `SOUND_STRETCH`, 1.2), the deepest penetration left
 //! (mm), whether any coordinate is NaN, whether the solve converged and in how many Newton

@@ -84,12 +84,7 @@ fn hanging_and_raised_arms_neither_tear_nor_sink_nor_break_symmetry() {
 /// barycentric coordinates are eighths, corners left out, and the centroid (twice as fine as
 /// the grid the recorded drape's projection pushes out, so this checks between its points).
 fn deepest_between_vertices(x: &[Vec3], faces: &[[u32; 3]], body: &impl SignedDistance) -> f64 {
-    let mut weights: Vec<[f64; 3]> = (0..=8_u8)
-        .flat_map(|i| (0..=8 - i).map(move |j| [i, j, 8 - i - j]))
-        .filter(|w| !w.contains(&8))
-        .map(|w| w.map(|k| f64::from(k) / 8.0))
-        .collect();
-    weights.push([1.0 / 3.0; 3]);
+    let weights = triangle_samples(8);
     faces
         .iter()
         .flat_map(|f| {

@@ -34,7 +34,7 @@ fn fixture(settings: &str) -> PathBuf {
         ))
 }
 
-/// Felt's drapes by the canonical protocol with `settings` (revision 3's samples) at three
+/// Felt's drapes by the canonical protocol with `settings` (this revision's samples) at three
 /// poses of the everyday suite, on the default (fitted) shirt: every vertex, pose after pose,
 /// in f32 as datasets store them.
 fn walk(settings: &SequenceSettings) -> Vec<[f32; 3]> {

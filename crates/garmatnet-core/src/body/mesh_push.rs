@@ -6,23 +6,26 @@
 //! 3.5 cm edge over a forearm. [`push_mesh_outside`] moves vertices so that the corners and a
 //! grid of points across every triangle end outside.
 
-use crate::body::sdf::{PUSH_SLACK, SignedDistance, unit_normal};
+use crate::body::sdf::{INSIDE_SLACK, SignedDistance, push_step, unit_normal};
 use crate::math::{Real, Vec3};
 
 /// How finely [`push_mesh_outside`] samples each triangle: at the points whose barycentric
 /// coordinates are multiples of `1 / FACE_DIVISIONS` (the corners are pushed as vertices),
-/// and at the centroid. With 4, twelve points and the centroid: between them a convex body
-/// part of radius `R` can cut under a triangle with edges `L` by at most about
-/// `(L/4)² / 8R`, 0.15 mm for a 4 cm edge over a 3.5 cm forearm.
+/// and at the centroid ([`triangle_samples`]). With 4, twelve points and the centroid:
+/// between them a convex body part of radius `R` can cut under a triangle with edges `L`
+/// by about `(L/4)² / 8R`, 0.36 mm for a 4 cm edge over a 3.5 cm forearm.
 pub const FACE_DIVISIONS: u8 = 4;
 
-/// The barycentric weights of [`FACE_DIVISIONS`]'s grid, corners left out, and the
-/// centroid.
-fn face_samples() -> Vec<[Real; 3]> {
-    let n = FACE_DIVISIONS;
+/// The barycentric weights of the points of a triangle whose coordinates are multiples of
+/// `1 / divisions`, the corners left out, followed by the centroid: the points
+/// [`push_mesh_outside`] keeps outside (with [`FACE_DIVISIONS`]), and a finer grid to check
+/// between them. `divisions` 0 or 1 gives the centroid alone.
+#[must_use]
+pub fn triangle_samples(divisions: u8) -> Vec<[Real; 3]> {
+    let n = divisions;
     let mut weights: Vec<[Real; 3]> = (0..=n)
         .flat_map(|i| (0..=n - i).map(move |j| [i, j, n - i - j]))
-        .filter(|w| !w.contains(&n))
+        .filter(|w| n > 1 && !w.contains(&n))
         .map(|w| w.map(|k| Real::from(k) / Real::from(n)))
         .collect();
     weights.push([1.0 / 3.0; 3]);
@@ -35,15 +38,11 @@ fn face_samples() -> Vec<[Real; 3]> {
 /// another.
 pub const MESH_PUSH_ROUNDS: usize = 32;
 
-/// A point counts as inside when its signed distance is below minus this (metres): the
-/// slack [`SignedDistance::push_outside`] allows for rounding.
-const INSIDE: Real = 1e-9;
-
 /// What [`push_mesh_outside`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct MeshPush {
-    /// The deepest free vertex, or sample point of a triangle with a free corner, left inside
-    /// the body afterwards (metres, ≥ 0).
+    /// The deepest free vertex, or sample point of a triangle with a free corner of positive
+    /// weight there, left inside the body afterwards (metres, ≥ 0).
     pub deepest: Real,
     /// The deepest of those points before the push (metres, ≥ 0).
     pub deepest_before: Real,
@@ -63,9 +62,10 @@ pub struct MeshPush {
 /// each free corner `i` of its triangle with barycentric weight `bᵢ` to move by
 /// `bᵢ s / Σⱼ bⱼ²` along `n`, the smallest move of the corners that carries the point `s`
 /// out, where `s` is the depth divided by the field's gradient length and capped at the
-/// depth plus [`PUSH_SLACK`] as in [`SignedDistance::push_outside`]. A vertex inside the body
-/// asks for its own push. Each vertex takes the largest move asked of it in the round, so the
-/// result does not depend on the order of the faces. Rounds repeat until nothing is inside
+/// depth plus [`crate::PUSH_SLACK`] as in [`SignedDistance::push_outside`]. A vertex inside the body
+/// asks for its own push. Each vertex takes the largest move asked of it in the round (two of
+/// exactly equal length averaged), so the result does not depend on the order of the faces.
+/// A point where the field's gradient is not finite asks for nothing. Rounds repeat until nothing is inside
 /// or [`MESH_PUSH_ROUNDS`] have run. Fixed vertices never move; a point whose weighted
 /// corners are all fixed is left where it is and not counted. A face with an index past the
 /// vertices is skipped, and `fixed` shorter than `positions` leaves the rest free.
@@ -83,7 +83,7 @@ pub fn push_mesh_outside(
         .filter(|f| f.iter().all(|&i| i < n))
         .collect();
     let mut report = MeshPush::default();
-    let samples = face_samples();
+    let samples = triangle_samples(FACE_DIVISIONS);
     let mut moved = vec![false; n];
     let mut vertex_distance = vec![0.0; n];
     // The move each vertex is asked for this round: the largest one.
@@ -93,9 +93,11 @@ pub fn push_mesh_outside(
         for (i, x) in positions.iter().enumerate() {
             let (d, g) = body.distance_and_gradient(x);
             vertex_distance[i] = d;
-            if d < -INSIDE && is_free(i) {
+            if d < -INSIDE_SLACK && is_free(i) {
                 deepest = deepest.max(-d);
-                ask(&mut asked, i, unit_normal(&g) * push_length(d, &g));
+                if finite(&g) {
+                    ask(&mut asked, i, unit_normal(&g) * push_step(-d, &g));
+                }
             }
         }
         for f in &faces {
@@ -114,7 +116,7 @@ pub fn push_mesh_outside(
             for w in &samples {
                 let p = corners[0] * w[0] + corners[1] * w[1] + corners[2] * w[2];
                 let (d, g) = body.distance_and_gradient(&p);
-                if d.is_nan() || d >= -INSIDE {
+                if d.is_nan() || d >= -INSIDE_SLACK {
                     continue;
                 }
                 let norm: Real = (0..3).filter(|&k| free[k]).map(|k| w[k] * w[k]).sum();
@@ -122,7 +124,10 @@ pub fn push_mesh_outside(
                     continue;
                 }
                 deepest = deepest.max(-d);
-                let along = unit_normal(&g) * (push_length(d, &g) / norm);
+                if !finite(&g) {
+                    continue;
+                }
+                let along = unit_normal(&g) * (push_step(-d, &g) / norm);
                 for k in (0..3).filter(|&k| free[k] && w[k] > 0.0) {
                     ask(&mut asked, f[k], along * w[k]);
                 }
@@ -147,24 +152,27 @@ pub fn push_mesh_outside(
     report
 }
 
-/// Records that vertex `i` is asked to move by `m`, keeping the largest move asked.
+/// Records that vertex `i` is asked to move by `m`, keeping the largest move asked; two
+/// asks of exactly the same length (mirror images, at a vertex on a symmetric mesh's mirror
+/// plane) are averaged, so the order they come in does not choose between them.
 fn ask(asked: &mut [Option<Vec3>], i: usize, m: Vec3) {
-    if asked[i].is_none_or(|a| m.norm_squared() > a.norm_squared()) {
-        asked[i] = Some(m);
-    }
+    let len = m.norm_squared();
+    asked[i] = match asked[i] {
+        Some(a) if a.norm_squared() > len => Some(a),
+        Some(a) if a.norm_squared() == len => Some((a + m) / 2.0),
+        _ => Some(m),
+    };
 }
 
-/// How far to move a point at signed distance `d < 0` with field gradient `g` so that it
-/// reaches the surface: [`SignedDistance::push_outside`]'s step.
-fn push_length(d: Real, g: &Vec3) -> Real {
-    let gap = -d;
-    (gap / g.norm().max(1e-3)).min(gap + PUSH_SLACK)
+/// Whether every component of `g` is finite (a broken field's gradient moves nothing).
+fn finite(g: &Vec3) -> bool {
+    g.iter().all(|c| c.is_finite())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body::sdf::Sphere;
+    use crate::body::sdf::{PUSH_SLACK, Sphere};
     use approx::assert_relative_eq;
 
     fn sphere() -> Sphere {
@@ -191,7 +199,7 @@ mod tests {
             .iter()
             .flat_map(|f| {
                 let c = f.map(|i| x[i as usize]);
-                face_samples()
+                triangle_samples(FACE_DIVISIONS)
                     .into_iter()
                     .map(move |w| c[0] * w[0] + c[1] * w[1] + c[2] * w[2])
                     .chain(c)
@@ -209,8 +217,12 @@ mod tests {
         assert!(before > 5e-3, "the chord should cut {before} m deep");
         let report = push_mesh_outside(&mut x, &faces, &s, &[false; 3]);
         assert_relative_eq!(report.deepest_before, before, max_relative = 1e-12);
-        assert!(report.deepest <= INSIDE, "left {} m inside", report.deepest);
-        assert!(deepest_sample(&x, &faces, &s) <= INSIDE);
+        assert!(
+            report.deepest <= INSIDE_SLACK,
+            "left {} m inside",
+            report.deepest
+        );
+        assert!(deepest_sample(&x, &faces, &s) <= INSIDE_SLACK);
         assert_eq!(report.moved, 3);
         // Lifted along the normal, not flung: no corner moves more than the cut was deep
         // plus the push's slack.
@@ -229,7 +241,11 @@ mod tests {
         assert_eq!(x[1], start[1]);
         assert_ne!(x[2], start[2]);
         assert_eq!(report.moved, 1);
-        assert!(report.deepest <= INSIDE, "left {} m inside", report.deepest);
+        assert!(
+            report.deepest <= INSIDE_SLACK,
+            "left {} m inside",
+            report.deepest
+        );
         // The edge between the two fixed corners cannot move: it stays as deep as it was,
         // and is not counted.
         let fixed_edge = |x: &[Vec3]| -s.distance(&((x[0] + x[1]) / 2.0));
@@ -257,6 +273,35 @@ mod tests {
         push_mesh_outside(&mut a, &[[0, 1, 2], [0, 2, 3]], &s, &[false; 4]);
         push_mesh_outside(&mut b, &[[0, 2, 3], [0, 1, 2]], &s, &[false; 4]);
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn triangle_samples_are_the_grid_without_corners_and_the_centroid() {
+        for (divisions, count) in [(0, 1), (1, 1), (2, 4), (4, 13), (8, 43)] {
+            let w = triangle_samples(divisions);
+            assert_eq!(w.len(), count, "{divisions}");
+            assert_eq!(*w.last().unwrap(), [1.0 / 3.0; 3]);
+            for p in &w {
+                assert_relative_eq!(p.iter().sum::<Real>(), 1.0, epsilon = 1e-12);
+                assert!(p.iter().all(|&c| (0.0..1.0).contains(&c)), "{p:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn mirrored_asks_of_equal_length_are_averaged_whatever_their_order() {
+        let (a, b) = (Vec3::new(0.3, 0.4, 0.0), Vec3::new(-0.3, 0.4, 0.0));
+        let mut one = vec![None];
+        ask(&mut one, 0, a);
+        ask(&mut one, 0, b);
+        let mut other = vec![None];
+        ask(&mut other, 0, b);
+        ask(&mut other, 0, a);
+        assert_eq!(one[0], Some(Vec3::new(0.0, 0.4, 0.0)));
+        assert_eq!(one, other);
+        // A longer ask still wins.
+        ask(&mut one, 0, Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(one[0], Some(Vec3::new(0.0, 0.0, 1.0)));
     }
 
     #[test]

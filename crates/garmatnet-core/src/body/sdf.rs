@@ -68,13 +68,10 @@ pub trait SignedDistance: Sync {
             let (d, g) = self.distance_and_gradient(&x);
             // A tiny slack keeps rounding from re-flagging a point just placed at the
             // clearance; a NaN distance (a broken field) leaves the point where it is.
-            if d.is_nan() || d >= clearance - 1e-9 {
+            if d.is_nan() || d >= clearance - INSIDE_SLACK {
                 break;
             }
-            let gap = clearance - d;
-            // The floor only keeps the division finite; the cap bounds the step.
-            let step = (gap / g.norm().max(1e-3)).min(gap + PUSH_SLACK);
-            x += unit_normal(&g) * step;
+            x += unit_normal(&g) * push_step(clearance - d, &g);
         }
         x
     }
@@ -92,6 +89,17 @@ const PUSH_STEPS: usize = 256;
 /// How far (metres) one step of [`SignedDistance::push_outside`] may go past the remaining
 /// gap, and so the most a pushed point can end past the clearance.
 pub const PUSH_SLACK: Real = 0.002;
+
+/// How far short of its clearance (metres) a point may lie and still count as out: a tiny
+/// slack keeps rounding from re-flagging a point just placed at the clearance.
+pub(crate) const INSIDE_SLACK: Real = 1e-9;
+
+/// One step of [`SignedDistance::push_outside`] for a point `gap` metres short of its
+/// clearance where the field's gradient is `g`: the gap over the gradient's length (the floor
+/// only keeps the division finite), capped at the gap plus [`PUSH_SLACK`].
+pub(crate) fn push_step(gap: Real, g: &Vec3) -> Real {
+    (gap / g.norm().max(1e-3)).min(gap + PUSH_SLACK)
+}
 
 /// A rest-pose body that garments can be fitted to: a signed distance field on a skeleton,
 /// with linear-blend-skinning weights for any point near its surface.

@@ -2,7 +2,7 @@
 //! those of a [strided plan](SamplePlan::Strided), written as a resumable, shardable dataset
 //! ([`crate::dataset::writer`]).
 //!
-//! Under the [canonical protocol](DrapeProtocol::Canonical) (revision 3, the default of
+//! Under the [canonical protocol](DrapeProtocol::Canonical) (revisions 3 and 4, the default of
 //! `garmatnet simulate`) each sample is draped on its own from its material's rest drape
 //! ([`CanonicalDraper`]); the workers take samples pose-major (every material's first pose,
 //! then every material's second, ...), so an interrupted run leaves a smaller dataset whose
@@ -54,7 +54,7 @@ pub struct GenerateConfig {
     /// Solver and sequence-walking settings.
     pub sequence: SequenceSettings,
     /// How each sample is draped: [`DrapeProtocol::Canonical`] (each on its own, from the
-    /// rest drape; revision 3's datasets) or [`DrapeProtocol::Walk`] (each from the previous
+    /// rest drape; the datasets of revisions 3 and 4) or [`DrapeProtocol::Walk`] (each from the previous
     /// pose of its material's walk).
     pub protocol: DrapeProtocol,
     /// Which (material, pose) samples to drape: every one, or a

@@ -50,11 +50,12 @@ pub const DATASET_FORMAT_VERSION: u32 = 1;
 /// - **4**: the final projection out of the body keeps the cloth's triangles out between
 ///   their vertices too: after the vertices, garmatnet-core's `push_mesh_outside` moves them
 ///   until a grid of points across each triangle (quarters of its edges and the centroid)
-///   lies outside the body
-///   ([`crate::ClothModel::with_faces`]). Revision 3's drapes at the everyday suite cut up to
+///   lies outside the body. Revision 3's drapes at the everyday suite cut up to
 ///   4.92 mm under the body between their vertices where a convex part pressed on the cloth
-///   (a forearm on the chest); the vertices of such triangles move out by a few millimetres
-///   and every other vertex stays where revision 3 put it.
+///   (a forearm on the chest); in canonical samples the vertices of such triangles move out
+///   by up to a few millimetres and every other vertex stays where revision 3 put it (the
+///   path is unchanged), while a walk goes on from each pushed frame, so its later frames
+///   differ more.
 pub const GROUND_TRUTH_REVISION: u32 = 4;
 
 /// The body the garments were draped on.
@@ -96,7 +97,9 @@ pub struct SampleStats {
     /// (dimensionless; [`crate::DrapeStats::final_residual`]).
     pub residual: f64,
     /// Deepest garment penetration into the body (metres, ≥ 0), after the solver's final
-    /// projection.
+    /// projection: since ground-truth revision 4 at the vertices and at points across every
+    /// triangle ([`crate::DrapeStats::max_penetration`]), before rounding to f32 (which
+    /// moves a point by at most about 3e-8 m).
     pub max_penetration_m: f64,
     /// Deepest vertex inside the body before that projection (metres, ≥ 0;
     /// [`crate::DrapeStats::max_depth_before_projection`]): where the contact did not hold

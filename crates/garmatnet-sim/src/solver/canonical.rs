@@ -1,10 +1,10 @@
-//! The canonical drape protocol (ground-truth revision 3): every sample is draped on its own,
+//! The canonical drape protocol (ground-truth revisions 3 and 4): every sample is draped on its own,
 //! from the garment's rest drape, along one path from the rest pose to its pose, so a drape
 //! is a function of (pose, fabric, settings) alone.
 //!
 //! Friction makes a drape depend on the path that reached it (measured: the same pose walked
 //! to along a 200-frame motion and draped from rest differ by 11–18 mm). A training sample
-//! must not: `predict(pose, fabric)` promises one answer. So every sample of a revision-3
+//! must not: `predict(pose, fabric)` promises one answer. So every sample of a canonical
 //! dataset starts from the same state, the rest garment draped at its
 //! [rest pose](Garment::rest_pose), and follows the same path, every joint slerped from the
 //! rest pose to the target together, in equal steps bounded by how far the skin under the
@@ -35,7 +35,7 @@ pub enum DrapeProtocol {
     #[default]
     Walk,
     /// Each sample is draped on its own from the garment's rest drape ([`CanonicalDraper`]):
-    /// ground-truth revision 3.
+    /// ground-truth revisions 3 and 4.
     Canonical,
 }
 

@@ -64,7 +64,11 @@ pub struct DrapeStats {
     /// Final largest `|f_i| / (m_i g)` over free vertices.
     pub max_residual: Real,
     /// Deepest remaining penetration into the collider after the final projection
-    /// (metres, >= 0).
+    /// (metres, >= 0), at the free vertices. A recorded drape (a dataset sample,
+    /// [`crate::simulate_drape`], a frame of [`crate::drape_sequence`]) reports it at points
+    /// across its triangles too, after their push out of the body
+    /// ([`garmatnet_core::push_mesh_outside`]), and its strain there; its residuals,
+    /// contacts and convergence stay the solver's, from before that push.
     pub max_penetration: Real,
     /// Deepest vertex inside the collider at the solver's last iterate, before the final
     /// projection moved it out (metres, >= 0): how far the contact penalty let the cloth

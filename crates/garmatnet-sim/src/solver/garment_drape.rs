@@ -430,9 +430,10 @@ pub struct SequenceResume {
 
 /// Drapes `garment` of `material` on `body` in every pose of `poses`, in order.
 ///
-/// After each pose the state is rounded to f32 precision, the precision datasets store, so
-/// a run resumed from a saved sample ([`SequenceResume`]) continues bit-identically to one
-/// that never stopped.
+/// After each pose the state is recorded as a dataset sample is (ground-truth revision 4:
+/// its triangles pushed out of the body between the vertices, then rounded to f32 precision,
+/// the precision datasets store), and the walk goes on from there, so a run resumed from a
+/// saved sample ([`SequenceResume`]) continues bit-identically to one that never stopped.
 ///
 /// Starts from the rest garment on the body in the garment's rest pose
 /// ([`Garment::rest_pose`]: the A-pose for the fitted shirt, the T-pose for the boxy one)
@@ -533,8 +534,10 @@ pub fn drape_sequence(
 /// The last step of every recorded drape (ground-truth revision 4): `positions`, whose free
 /// vertices the solver's final projection left outside `body`, moved until each of the
 /// garment's triangles (`faces`) has a grid of points across it outside too
-/// ([`push_mesh_outside`]: twelve points and the centroid), then rounded to f32 as datasets store them; `stats` then record
-/// the penetration at those points and the strain of `model`'s springs there. The solver's
+/// ([`push_mesh_outside`]: twelve points and the centroid), then rounded to f32 as
+/// datasets store them; `stats` then record the penetration at those points (before the
+/// rounding, which moves a point by at most about 3e-8 m) and the strain of `model`'s
+/// springs; the residuals, contacts and convergence stay the solver's. The solver's
 /// contact acts at the vertices, and where a convex body part presses on the cloth (a forearm
 /// on the chest) the triangles between them cut under it by up to 5 mm. The canonical
 /// protocol applies it to the drape at the target pose only, not along its path, so its

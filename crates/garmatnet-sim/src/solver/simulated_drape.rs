@@ -1,5 +1,5 @@
 //! The simulator's drape of what a prediction is compared with, timed: one pose by the
-//! canonical protocol, as a revision-3 dataset drapes it, or a sequence of poses walked in
+//! canonical protocol, as a dataset drapes it, or a sequence of poses walked in
 //! order, as an animation moves.
 
 use std::time::Instant;
@@ -26,10 +26,10 @@ pub struct SimulatedDrape {
 }
 
 /// Drapes `garment` of `material` on `body` at `pose` by the canonical protocol of
-/// ground-truth revision 3 ([`CanonicalDraper`]: the rest drape carried along the canonical
-/// path to `pose`, then converged, rounded to f32), on this thread. With
-/// [`canonical_settings`] and the dataset's template and body, this is the sample a
-/// revision-3 dataset made with the default settings holds for (pose, fabric).
+/// ground-truth revision 4 ([`CanonicalDraper`]: the rest drape carried along the canonical
+/// path to `pose`, then converged, its triangles pushed out of the body, rounded to f32), on
+/// this thread. With [`canonical_settings`] and the dataset's template and body, this is the
+/// sample a revision-4 dataset made with the default settings holds for (pose, fabric).
 ///
 /// # Errors
 /// The solver's errors, e.g. a material outside the physical range.

@@ -8,7 +8,7 @@
 //! None of these depends on which of several nearby equilibria the solver reached, so they
 //! say whether a prediction is a drape at all where the millimetre errors cannot.
 
-use garmatnet_core::{Garment, Material, PosedBody, SignedDistance, Vec3};
+use garmatnet_core::{Garment, Material, PosedBody, SignedDistance, Vec3, push_mesh_outside};
 use garmatnet_sim::{
     ClothModel, DatasetSpec, DrapeSettings, DrapeSolver, SOUND_STRETCH, SequenceSettings,
     cloth_from_garment, drape_energy_and_gradient, force_residual,
@@ -156,6 +156,9 @@ impl QualityAccumulator {
         let mut x = start.to_vec();
         let stats = solver.drape(&mut x, body, &[])?;
         self.solvers[material] = Some(solver);
+        // Recorded as a sample is (ground-truth revision 4): the triangles pushed out of the
+        // body between their vertices too.
+        push_mesh_outside(&mut x, &self.garment.rest.faces, body, &[]);
         let distance_mm = 1e3
             * x.iter()
                 .zip(truth)
@@ -275,8 +278,12 @@ mod tests {
         assert!(r.newton.is_none());
     }
 
-    /// Polishing the ground truth itself converges at once and stays on it; polishing a
-    /// stretched copy takes more iterations and comes back near it.
+    /// Polishing the ground truth itself converges quickly and stays near it; polishing a
+    /// stretched copy takes more iterations and ends farther from it. A revision-4 truth has
+    /// its triangles pushed off the body between their vertices, which the solver's
+    /// equilibrium does not hold: on the coarse shirt, whose chords over the arms reach deeper
+    /// than the 3 mm contact margin, polishing the truth moves it 3.6 mm on average (the
+    /// stretched copy ends 8.1 mm from it).
     #[test]
     fn polishing_counts_the_newton_iterations_from_a_start() {
         let (truth, stats, posed, mut q) = zero_pose_drape("Denim Heavy");
@@ -290,7 +297,11 @@ mod tests {
         let (at_truth, from_stretched) = (q.polished[0], q.polished[1]);
         assert!(at_truth.1 && from_stretched.1, "{:?}", q.polished);
         assert!(at_truth.0 < from_stretched.0, "{:?}", q.polished);
-        assert!(at_truth.3 < 1.0, "{:?}", q.polished);
+        assert!(
+            at_truth.3 < 5.0 && at_truth.3 < 0.5 * from_stretched.3,
+            "{:?}",
+            q.polished
+        );
         let n = q.finish().unwrap().newton.unwrap();
         assert_eq!((n.samples, n.converged), (2, 2));
         assert_eq!(n.truth_mean_iterations, stats.iterations as f64);
