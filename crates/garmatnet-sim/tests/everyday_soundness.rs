@@ -5,7 +5,7 @@
 //! preset at every pose (the ground-truth chapter of the book has the table).
 
 use garmatnet_core::{
-    CapsuleBody, Garment, Material, Resolution, SignedDistance, SpringKind, Vec3,
+    CapsuleBody, Garment, Material, Resolution, SignedDistance, SpringKind, Vec3, triangle_samples,
 };
 use garmatnet_sim::{
     CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses,

@@ -304,6 +304,62 @@ mod tests {
         assert_eq!(one[0], Some(Vec3::new(0.0, 0.0, 1.0)));
     }
 
+    /// A 3 × 3 sheet of spacing `h` (metres) in the plane through `centre` square to
+    /// `normal`: 9 vertices, 8 triangles.
+    fn sheet(centre: Vec3, normal: Vec3, h: Real) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let n = normal.normalize();
+        let u = n
+            .cross(&Vec3::x())
+            .try_normalize(1e-6)
+            .unwrap_or_else(|| n.cross(&Vec3::y()).normalize());
+        let v = n.cross(&u);
+        let x = (0..9)
+            .map(|k| centre + u * (h * Real::from(k % 3) - h) + v * (h * Real::from(k / 3) - h))
+            .collect();
+        let mut faces = Vec::new();
+        for r in 0..2_u32 {
+            for c in 0..2_u32 {
+                let a = 3 * r + c;
+                faces.push([a, a + 1, a + 4]);
+                faces.push([a, a + 4, a + 3]);
+            }
+        }
+        (x, faces)
+    }
+
+    proptest::proptest! {
+        /// On a convex body: every sample point ends outside, fixed vertices never move,
+        /// and the faces' order changes nothing.
+        #[test]
+        fn a_sheet_cutting_into_a_sphere_ends_outside_whatever_the_face_order(
+            dir in proptest::array::uniform3(-1.0..1.0_f64),
+            tilt in proptest::array::uniform3(-1.0..1.0_f64),
+            depth in 0.8..1.05_f64,
+            h in 0.005..0.03_f64,
+            fixed in proptest::collection::vec(proptest::bool::weighted(0.2), 9),
+        ) {
+            let s = sphere();
+            let d = Vec3::from(dir);
+            proptest::prop_assume!(d.norm() > 0.1);
+            let normal = d.normalize() + Vec3::from(tilt) * 0.3;
+            let (x, faces) = sheet(d.normalize() * (s.radius * depth), normal, h);
+            let mut a = x.clone();
+            let report = push_mesh_outside(&mut a, &faces, &s, &fixed);
+            let mut reversed = faces.clone();
+            reversed.reverse();
+            let mut b = x.clone();
+            push_mesh_outside(&mut b, &reversed, &s, &fixed);
+            proptest::prop_assert_eq!(&a, &b);
+            for i in (0..9).filter(|&i| fixed[i]) {
+                proptest::prop_assert_eq!(a[i], x[i]);
+            }
+            if fixed.iter().all(|f| !f) {
+                proptest::prop_assert!(report.deepest <= 1e-6, "{:?}", report);
+                proptest::prop_assert!(deepest_sample(&a, &faces, &s) <= 1e-6);
+            }
+        }
+    }
+
     #[test]
     fn out_of_range_faces_and_short_fixed_lists_do_not_panic() {
         let s = sphere();
