@@ -1,0 +1,66 @@
+//! Run: `cargo run --release --example prediction_depth -- [PRESET ...]`
+//!
+//! How deep the shipped model's predictions cut under the body between their vertices at
+//! the everyday suite. The predictor's push-out moves every vertex at least 2 mm out of the
+//! posed body; a triangle between such vertices can still cut under it where the surface is
+//! convex. For each preset (default: Cashmere, Denim Heavy, Silk Chiffon, Trim Fusible Rigid,
+//! Cotton Jersey) and each everyday pose this prints the deepest vertex and the deepest of 43
+//! points across every triangle (`garmatnet_core::triangle_samples(8)`) inside the body, and
+//! in the end the largest and how many predictions reach deeper than 1 mm.
+
+use anyhow::{Context, Result};
+use garmatnet::Material;
+use garmatnet::core::{SignedDistance, triangle_samples};
+use garmatnet::model::{Detail, Predictor, default_model_path, select_device};
+use garmatnet::sim::everyday_poses;
+
+fn main() -> Result<()> {
+    let mut presets: Vec<String> = std::env::args().skip(1).collect();
+    if presets.is_empty() {
+        presets = [
+            "Cashmere",
+            "Denim Heavy",
+            "Silk Chiffon",
+            "Trim Fusible Rigid",
+            "Cotton Jersey",
+        ]
+        .map(String::from)
+        .to_vec();
+    }
+    let predictor = Predictor::from_file(&default_model_path(), &select_device("cpu")?)?;
+    let body = predictor
+        .body()
+        .context("the shipped model's predictor knows its body")?
+        .clone();
+    let weights = triangle_samples(8);
+    let mut depths = Vec::new();
+    println!("| preset | pose | deepest vertex (mm) | deepest between vertices (mm) |");
+    println!("|---|---|---:|---:|");
+    for name in &presets {
+        let material = Material::preset(name)?;
+        for pose in everyday_poses() {
+            let mesh = predictor.predict(&pose.pose, &material, Detail::Full)?;
+            let posed = body.pose(&pose.pose);
+            let depth = |p: &garmatnet::core::Vec3| -posed.distance(p) * 1e3;
+            let vertices = mesh.vertices.iter().map(depth).fold(0.0, f64::max);
+            let between = mesh
+                .faces
+                .iter()
+                .flat_map(|f| {
+                    let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
+                    weights.iter().map(move |w| a * w[0] + b * w[1] + c * w[2])
+                })
+                .map(|p| depth(&p))
+                .fold(0.0, f64::max);
+            println!("| {name} | {} | {vertices:.2} | {between:.2} |", pose.name);
+            depths.push(between);
+        }
+    }
+    let over = depths.iter().filter(|d| **d > 1.0).count();
+    let largest = depths.iter().copied().fold(0.0, f64::max);
+    println!(
+        "largest {largest:.2} mm between the vertices; {over} of {} predictions past 1 mm",
+        depths.len()
+    );
+    Ok(())
+}
