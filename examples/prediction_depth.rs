@@ -27,7 +27,7 @@ fn main() -> Result<()> {
         .map(String::from)
         .to_vec();
     }
-    let predictor = Predictor::from_file(&default_model_path(), &select_device("cpu")?)?;
+    let predictor = Predictor::from_file(default_model_path(), &select_device("cpu")?)?;
     let body = predictor
         .body()
         .context("the shipped model's predictor knows its body")?
