@@ -78,6 +78,10 @@ pub struct DrapeArgs {
     /// Keep vertices the network put inside the body where they are.
     #[arg(long)]
     pub no_push_out: bool,
+    /// Push the triangles out of the body between their vertices too, as the ground truth's
+    /// drapes are (`garmatnet_core::push_mesh_outside`; off by default).
+    #[arg(long, conflicts_with = "no_push_out")]
+    pub push_faces: bool,
     /// Predict without mirror averaging: the nets' garment at the pose alone, not averaged
     /// with the mirror image of their garment at the mirrored pose (half the nets' time; a
     /// symmetric pose may then get a lopsided garment). A `--calibration` was fitted to
@@ -146,9 +150,10 @@ pub fn run(args: &DrapeArgs) -> Result<()> {
     let device = select_device(&args.device)?;
     let model_path = args.model.clone().unwrap_or_else(default_model_path);
     let mut predictor = Predictor::from_file(&model_path, &device)?;
-    if args.no_push_out {
+    if args.no_push_out || args.push_faces {
         predictor = predictor.with_push_out(PushOut {
-            enabled: false,
+            enabled: !args.no_push_out,
+            faces: args.push_faces,
             ..PushOut::default()
         })?;
     }

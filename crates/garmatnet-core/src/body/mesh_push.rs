@@ -72,7 +72,7 @@ pub struct MeshPush {
 pub fn push_mesh_outside(
     positions: &mut [Vec3],
     faces: &[[u32; 3]],
-    body: &impl SignedDistance,
+    body: &(impl SignedDistance + ?Sized),
     fixed: &[bool],
 ) -> MeshPush {
     let n = positions.len();

@@ -10,7 +10,7 @@ use std::sync::{Arc, OnceLock};
 use burn::prelude::*;
 use garmatnet_core::{
     BodyAnchor, CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, Material, POSE_DIM,
-    Pose, Real, SignedDistance, Skeleton, SkinnedBody, TriMesh, Vec3,
+    Pose, Real, SignedDistance, Skeleton, SkinnedBody, TriMesh, Vec3, push_mesh_outside,
 };
 
 use crate::error::{Error, Result};
@@ -663,8 +663,32 @@ impl Predictor {
     pub(crate) fn push_out_vertices(&self, vertices: &mut [Vec3], pose: &Pose) {
         if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
             // As in `predict`, the report is dropped: `predict_on_body` returns it.
-            let _ = push_out(vertices, &body.pose(pose), self.push_out.epsilon);
+            let _ = self.push_out_mesh(vertices, &body.pose(pose));
         }
+    }
+
+    /// Push-out of a predicted garment as [`Predictor::with_push_out`] set it: every vertex
+    /// to its clearance, then, with [`PushOut::faces`], the triangles between them
+    /// ([`push_mesh_outside`]). The report counts both.
+    fn push_out_mesh(
+        &self,
+        vertices: &mut [Vec3],
+        body: &(dyn SignedDistance + Sync),
+    ) -> PushOutReport {
+        if !self.push_out.faces {
+            return push_out(vertices, body, self.push_out.epsilon);
+        }
+        let start = vertices.to_vec();
+        let _ = push_out(vertices, body, self.push_out.epsilon);
+        push_mesh_outside(vertices, &self.faces, body, &[]);
+        start
+            .iter()
+            .zip(vertices.iter())
+            .map(|(a, b)| (b - a).norm())
+            .fold(PushOutReport::default(), |r, d| PushOutReport {
+                moved: r.moved + usize::from(d > 0.0),
+                max_move: r.max_move.max(d),
+            })
     }
 
     /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;
@@ -681,7 +705,7 @@ impl Predictor {
     ) -> Result<(GarmentMesh, PushOutReport)> {
         let mut mesh = self.predict_normalized(pose, material, detail)?;
         let report = if self.push_out.enabled {
-            push_out(&mut mesh.vertices, body, self.push_out.epsilon)
+            self.push_out_mesh(&mut mesh.vertices, body)
         } else {
             PushOutReport::default()
         };
@@ -1359,6 +1383,7 @@ mod tests {
                 .with_push_out(PushOut {
                     enabled: true,
                     epsilon,
+                    faces: false,
                 })
                 .unwrap_err();
             assert!(refused.to_string().contains("epsilon"), "{refused}");
