@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use anyhow::Result;
 use clap::Parser;
-use garmatnet::core::{FACE_DIVISIONS, SignedDistance, triangle_samples};
+use garmatnet::core::{FACE_DIVISIONS, deepest_point_inside};
 use garmatnet::train::TrainingDataset;
 
 /// Command-line arguments.
@@ -28,8 +28,6 @@ struct Args {
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    // Twice as fine as the final push's grid: eighths, corners left out, and the centroid.
-    let weights = triangle_samples(2 * FACE_DIVISIONS);
     for dir in &args.datasets {
         let set = TrainingDataset::open(dir, true)?;
         let faces = &set.garment().rest.faces;
@@ -38,14 +36,7 @@ fn main() -> Result<()> {
         for key in set.keys() {
             let x = set.truth(key)?.simulated;
             let posed = set.body().pose(&set.spec().poses[key.pose]);
-            let mut deepest = 0.0_f64;
-            for f in faces {
-                let [a, b, c] = f.map(|i| x[i as usize]);
-                for w in &weights {
-                    let p = a * w[0] + b * w[1] + c * w[2];
-                    deepest = deepest.max(-posed.distance(&p));
-                }
-            }
+            let deepest = deepest_point_inside(&x, faces, &posed, 2 * FACE_DIVISIONS);
             per_pose.entry(key.pose).or_default().push(1e3 * deepest);
         }
         println!("{}:", dir.display());

@@ -5,7 +5,7 @@
 //! posed body; a triangle between such vertices can still cut under it where the surface is
 //! convex. For each preset (default: Cashmere, Denim Heavy, Silk Chiffon, Trim Fusible Rigid,
 //! Cotton Jersey) and each everyday pose this prints the deepest vertex and the deepest of 43
-//! points across every triangle (`garmatnet_core::triangle_samples(8)`) inside the body, and
+//! points across every triangle (`garmatnet_core::deepest_point_inside`, eighths) inside the body, and
 //! in the end the largest and how many predictions reach deeper than 1 mm, and the mean time
 //! of a prediction; then the same with `PushOut::faces` (the triangles pushed out too).
 
@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use garmatnet::Material;
-use garmatnet::core::{SignedDistance, triangle_samples};
+use garmatnet::core::{SignedDistance, deepest_point_inside};
 use garmatnet::model::{Detail, Predictor, PushOut, default_model_path, select_device};
 use garmatnet::sim::everyday_poses;
 
@@ -48,7 +48,6 @@ fn measure(label: &str, predictor: &Predictor, presets: &[String]) -> Result<()>
         .body()
         .context("the shipped model's predictor knows its body")?
         .clone();
-    let weights = triangle_samples(8);
     let (mut depths, mut seconds) = (Vec::new(), 0.0);
     println!("push-out at the {label}:");
     println!("| preset | pose | deepest vertex (mm) | deepest between vertices (mm) |");
@@ -62,15 +61,7 @@ fn measure(label: &str, predictor: &Predictor, presets: &[String]) -> Result<()>
             let posed = body.pose(&pose.pose);
             let depth = |p: &garmatnet::core::Vec3| -posed.distance(p) * 1e3;
             let vertices = mesh.vertices.iter().map(depth).fold(0.0, f64::max);
-            let between = mesh
-                .faces
-                .iter()
-                .flat_map(|f| {
-                    let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
-                    weights.iter().map(move |w| a * w[0] + b * w[1] + c * w[2])
-                })
-                .map(|p| depth(&p))
-                .fold(0.0, f64::max);
+            let between = 1e3 * deepest_point_inside(&mesh.vertices, &mesh.faces, &posed, 8);
             println!("| {name} | {} | {vertices:.2} | {between:.2} |", pose.name);
             depths.push(between);
         }

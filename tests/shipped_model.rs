@@ -2,7 +2,7 @@
 //! fits the library's T-shirt, answers for any fabric, survives random valid inputs, and
 //! drapes a symmetric pose symmetrically.
 
-use garmatnet::core::SignedDistance;
+use garmatnet::core::{SignedDistance, deepest_point_inside};
 use garmatnet::model::{SHIPPED_MODEL, select_device};
 use garmatnet::train::stress_predictor;
 use garmatnet::{Detail, Material, Predictor};
@@ -118,19 +118,6 @@ fn the_shipped_model_drapes_a_symmetric_pose_symmetrically() -> anyhow::Result<(
     Ok(())
 }
 
-/// The deepest of 43 points across every triangle of `mesh` inside `body` (metres, ≥ 0).
-fn deepest_between_vertices(mesh: &garmatnet::GarmentMesh, body: &impl SignedDistance) -> f64 {
-    let weights = garmatnet::core::triangle_samples(8);
-    mesh.faces
-        .iter()
-        .flat_map(|f| {
-            let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
-            weights.iter().map(move |w| a * w[0] + b * w[1] + c * w[2])
-        })
-        .map(|p| -body.distance(&p))
-        .fold(0.0, f64::max)
-}
-
 /// Push-out acts at the vertices, and at arms-crossed the shipped model's Trim Fusible Rigid
 /// still cuts under the forearm between them (11.36 mm measured); with `PushOut::faces` no
 /// point of its triangles is left more than 1 mm inside.
@@ -145,8 +132,11 @@ fn pushing_the_faces_out_clears_the_predicted_triangles_from_the_body() -> anyho
     let pose = garmatnet::sim::everyday_pose("arms-crossed")?;
     let posed = body.pose(&pose);
     let fabric = Material::preset("Trim Fusible Rigid")?;
-    let before = deepest_between_vertices(&plain.predict(&pose, &fabric, Detail::Full)?, &posed);
-    let after = deepest_between_vertices(&faces.predict(&pose, &fabric, Detail::Full)?, &posed);
+    let deepest = |p: &Predictor| -> anyhow::Result<f64> {
+        let mesh = p.predict(&pose, &fabric, Detail::Full)?;
+        Ok(deepest_point_inside(&mesh.vertices, &mesh.faces, &posed, 8))
+    };
+    let (before, after) = (deepest(&plain)?, deepest(&faces)?);
     assert!(before > 0.005, "vertex push-out alone left {before} m");
     assert!(after <= 1e-3, "{after} m deep between the vertices");
     Ok(())

@@ -24,7 +24,8 @@ pub use body::capsule_union::{
     SHOULDER_BLEND_REACH,
 };
 pub use body::mesh_push::{
-    FACE_DIVISIONS, MESH_PUSH_ROUNDS, MeshPush, push_mesh_outside, triangle_samples,
+    FACE_DIVISIONS, MESH_PUSH_ROUNDS, MeshPush, deepest_point_inside, push_mesh_outside,
+    triangle_samples,
 };
 pub use body::posable_body::PosableBody;
 pub use body::pose::{

@@ -5,7 +5,7 @@
 //! preset at every pose (the ground-truth chapter of the book has the table).
 
 use garmatnet_core::{
-    CapsuleBody, Garment, Material, Resolution, SignedDistance, SpringKind, Vec3, triangle_samples,
+    CapsuleBody, Garment, Material, Resolution, SpringKind, deepest_point_inside,
 };
 use garmatnet_sim::{
     CanonicalDraper, MirrorMap, SOUND_STRETCH, canonical_settings, everyday_poses,
@@ -63,7 +63,7 @@ fn hanging_and_raised_arms_neither_tear_nor_sink_nor_break_symmetry() {
                 "{what}: {} m deep",
                 stats.max_penetration
             );
-            let between = deepest_between_vertices(&x, &garment.rest.faces, &body.pose(&pose.pose));
+            let between = deepest_point_inside(&x, &garment.rest.faces, &body.pose(&pose.pose), 8);
             assert!(
                 between <= 1e-3,
                 "{what}: {:.2} mm deep between the vertices",
@@ -78,19 +78,4 @@ fn hanging_and_raised_arms_neither_tear_nor_sink_nor_break_symmetry() {
             );
         }
     }
-}
-
-/// The deepest of 43 points of every triangle inside `body` (metres, ≥ 0): the points whose
-/// barycentric coordinates are eighths, corners left out, and the centroid (twice as fine as
-/// the grid the recorded drape's projection pushes out, so this checks between its points).
-fn deepest_between_vertices(x: &[Vec3], faces: &[[u32; 3]], body: &impl SignedDistance) -> f64 {
-    let weights = triangle_samples(8);
-    faces
-        .iter()
-        .flat_map(|f| {
-            let [a, b, c] = f.map(|i| x[i as usize]);
-            weights.iter().map(move |w| a * w[0] + b * w[1] + c * w[2])
-        })
-        .map(|p| -body.distance(&p))
-        .fold(0.0, f64::max)
 }

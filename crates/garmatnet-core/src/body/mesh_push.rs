@@ -32,6 +32,33 @@ pub fn triangle_samples(divisions: u8) -> Vec<[Real; 3]> {
     weights
 }
 
+/// How deep (metres, ≥ 0) the deepest point of a triangle mesh lies inside `body`, taken at
+/// every vertex and at [`triangle_samples`]`(divisions)` across every triangle: how
+/// [`push_mesh_outside`]'s result is checked, on a finer grid than it pushes. Faces with an
+/// index past the vertices are skipped.
+#[must_use]
+pub fn deepest_point_inside(
+    positions: &[Vec3],
+    faces: &[[u32; 3]],
+    body: &(impl SignedDistance + ?Sized),
+    divisions: u8,
+) -> Real {
+    let weights = triangle_samples(divisions);
+    let between = faces
+        .iter()
+        .filter_map(|f| {
+            let corners = f.map(|i| positions.get(i as usize).copied());
+            Some([corners[0]?, corners[1]?, corners[2]?])
+        })
+        .flat_map(|[a, b, c]| weights.iter().map(move |w| a * w[0] + b * w[1] + c * w[2]));
+    positions
+        .iter()
+        .copied()
+        .chain(between)
+        .map(|p| -body.distance(&p))
+        .fold(0.0, Real::max)
+}
+
 /// The most rounds of [`push_mesh_outside`]. A ridge through a triangle's middle is cleared
 /// in one round (to first order in the surface's curvature) and the next cleans up the
 /// curvature's remainder; more are needed only where a push out of one body part reaches
@@ -195,17 +222,7 @@ mod tests {
     }
 
     fn deepest_sample(x: &[Vec3], faces: &[[u32; 3]], s: &Sphere) -> Real {
-        faces
-            .iter()
-            .flat_map(|f| {
-                let c = f.map(|i| x[i as usize]);
-                triangle_samples(FACE_DIVISIONS)
-                    .into_iter()
-                    .map(move |w| c[0] * w[0] + c[1] * w[1] + c[2] * w[2])
-                    .chain(c)
-            })
-            .map(|p| -s.distance(&p))
-            .fold(0.0, Real::max)
+        deepest_point_inside(x, faces, s, FACE_DIVISIONS)
     }
 
     #[test]

@@ -21,7 +21,7 @@ use crate::error::Result;
 use crate::solver::drape_settings::DrapeSettings;
 use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
 use crate::solver::garment_drape::{
-    FrameStepper, SequenceSettings, cloth_from_garment, record_drape, settle_rest_drape,
+    FrameStepper, SequenceSettings, cloth_from_garment, round_to_f32, settle_rest_drape,
     surface_steps,
 };
 
@@ -226,22 +226,9 @@ impl CanonicalDraper {
             shirt.set_settings(&full)?;
         }
         let mut stats = shirt.step(last)?;
-        let mut positions = shirt.positions().to_vec();
-        record_drape(
-            &mut positions,
-            &self.faces,
-            shirt.posed_body(),
-            self.solver.model(),
-            &mut stats,
-        )?;
+        shirt.record(&self.faces, &mut stats)?;
+        let positions = shirt.into_positions();
         Ok((positions, stats))
-    }
-}
-
-/// Rounds every coordinate to the nearest f32, the precision datasets store.
-fn round_to_f32(positions: &mut [Vec3]) {
-    for p in positions {
-        *p = p.map(|c| f64::from(c as f32));
     }
 }
 

@@ -4,8 +4,8 @@
 
 use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{
-    CapsuleBody, Error as CoreError, Garment, Material, Pose, PosedBody, Real, SignedDistance,
-    SpringKind, Vec3, push_mesh_outside,
+    CapsuleBody, Error as CoreError, Garment, Material, Pose, PosedBody, Real, SpringKind, Vec3,
+    push_mesh_outside,
 };
 use serde::{Deserialize, Serialize};
 
@@ -344,6 +344,29 @@ impl FrameStepper {
             .drape_with_anchors(&mut self.positions, &self.anchors, &self.posed, &[])
     }
 
+    /// Turns the last step's drape into a recorded one (ground-truth revision 4): its
+    /// vertices, which the solver's final projection left outside the body, moved until a grid
+    /// of points across each of the garment's triangles (`faces`) lies outside too
+    /// ([`push_mesh_outside`]: twelve points and the centroid), then rounded to f32 as
+    /// datasets store them. `stats` (that step's) then record the penetration at those
+    /// points (before the rounding, which moves a point by at most about 3e-8 m) and the
+    /// strain of the springs; the residuals, contacts and convergence stay the solver's. The
+    /// solver's contact acts at the vertices, and where a convex body part presses on the
+    /// cloth (a forearm on the chest) the triangles between them cut under it by up to 5 mm.
+    /// The canonical protocol records the drape at the target pose only, not along its path,
+    /// so its drapes stay where revision 3's were except at such triangles; a walk goes on
+    /// from each recorded drape, as a walk resumed from its last sample must.
+    ///
+    /// # Errors
+    /// As [`ClothModel::max_strain`].
+    pub(crate) fn record(&mut self, faces: &[[u32; 3]], stats: &mut DrapeStats) -> Result<()> {
+        let pushed = push_mesh_outside(&mut self.positions, faces, &self.posed, &[]);
+        round_to_f32(&mut self.positions);
+        stats.max_penetration = pushed.deepest;
+        stats.max_strain = self.solver.model().max_strain(&self.positions)?;
+        Ok(())
+    }
+
     /// Replaces the solver's settings (the budget of the next steps among them).
     ///
     /// # Errors
@@ -516,14 +539,7 @@ pub fn drape_sequence(
         let mut stats = garment_on_body.step(last)?;
         // The walk goes on from the drape as recorded (pushed out, rounded to f32), so a
         // walk resumed from its last sample takes the same path.
-        let posed = garment_on_body.posed_body().clone();
-        record_drape(
-            garment_on_body.positions_mut(),
-            &garment.rest.faces,
-            &posed,
-            &model,
-            &mut stats,
-        )?;
+        garment_on_body.record(&garment.rest.faces, &mut stats)?;
         on_sample(index, garment_on_body.positions(), &stats)?;
         all.push(stats);
         current = target.clone();
@@ -531,35 +547,11 @@ pub fn drape_sequence(
     Ok(all)
 }
 
-/// The last step of every recorded drape (ground-truth revision 4): `positions`, whose free
-/// vertices the solver's final projection left outside `body`, moved until each of the
-/// garment's triangles (`faces`) has a grid of points across it outside too
-/// ([`push_mesh_outside`]: twelve points and the centroid), then rounded to f32 as
-/// datasets store them; `stats` then record the penetration at those points (before the
-/// rounding, which moves a point by at most about 3e-8 m) and the strain of `model`'s
-/// springs; the residuals, contacts and convergence stay the solver's. The solver's
-/// contact acts at the vertices, and where a convex body part presses on the cloth (a forearm
-/// on the chest) the triangles between them cut under it by up to 5 mm. The canonical
-/// protocol applies it to the drape at the target pose only, not along its path, so its
-/// drapes stay where revision 3's were except at such triangles; a walk goes on from each
-/// recorded drape, as a walk resumed from its last sample must.
-///
-/// # Errors
-/// As [`ClothModel::max_strain`] for positions of the wrong length.
-pub(crate) fn record_drape(
-    positions: &mut [Vec3],
-    faces: &[[u32; 3]],
-    body: &impl SignedDistance,
-    model: &ClothModel,
-    stats: &mut DrapeStats,
-) -> Result<()> {
-    let pushed = push_mesh_outside(positions, faces, body, &[]);
-    for p in positions.iter_mut() {
+/// Rounds every coordinate to the nearest f32, the precision datasets store.
+pub(crate) fn round_to_f32(positions: &mut [Vec3]) {
+    for p in positions {
         *p = p.map(|c| f64::from(c as f32));
     }
-    stats.max_penetration = pushed.deepest;
-    stats.max_strain = model.max_strain(positions)?;
-    Ok(())
 }
 
 /// Newton iterations of the rest drape's frictionless landing ([`settle_at_rest`]).
