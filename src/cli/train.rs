@@ -2,10 +2,10 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 use garmatnet::core::{DisplacementFrame, Resolution};
-use garmatnet::model::PoseEncoding;
+use garmatnet::model::{GarMatNetModel, PoseEncoding, select_device};
 use garmatnet::train::{
     BASELINE_MANIFEST, BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS,
     PhysicsOnlyConfig, RunOptions, TrainConfig, sweep_alpha, train, train_baseline,
@@ -252,6 +252,13 @@ pub struct TrainArgs {
     /// settings; after a divergence, with a lower `--lr` (the change is recorded).
     #[arg(long)]
     pub resume: bool,
+    /// Fine-tune: start both nets from this trained model (`.safetensors`, e.g. the shipped
+    /// one) and keep its normalisers, instead of fresh nets; the dataset must be of the
+    /// model's garment. The architecture (`--hidden`, `--rank`, `--alpha`, `--frame`,
+    /// `--pose-encoding`, `--scale-free-material`) is the model's unless a flag sets it. A
+    /// lower `--lr` than a fresh run's keeps more of what the model learned.
+    #[arg(long)]
+    pub init_from: Option<PathBuf>,
     /// Train from the solver's drape energy alone, with no dataset (`--data` is not read):
     /// both nets together, on (pose, fabric) pairs drawn every step, for the T-shirt at
     /// `--resolution` on the neutral body. `--batch-size` is the pairs per step,
@@ -289,9 +296,49 @@ pub struct SweepAlphaArgs {
     pub alphas: Option<Vec<f64>>,
 }
 
+/// `config` with the architecture of the model at `path` wherever no flag of `options` set
+/// one, and that model to start from.
+fn fine_tune_config(
+    mut config: TrainConfig,
+    options: &TrainOptions,
+    path: &std::path::Path,
+) -> Result<TrainConfig> {
+    let model = GarMatNetModel::load(path, &select_device("cpu")?)
+        .with_context(|| format!("--init-from {}", path.display()))?;
+    let net = model.fitting.config();
+    if options.hidden.is_none() {
+        (config.pose_hidden, config.material_hidden, config.hidden) =
+            (net.pose_hidden, net.material_hidden, net.hidden);
+    }
+    if options.rank.is_none() {
+        config.output_rank = net.output_rank;
+    }
+    if options.alpha.is_none() {
+        config.alpha = net.alpha;
+    }
+    if options.frame.is_none() {
+        config.displacement_frame = net.displacement_frame;
+    }
+    if options.pose_encoding.is_none() {
+        config.pose_encoding = net.pose_encoding;
+    }
+    if !options.scale_free_material {
+        config.scale_free_material = net.scale_free_material;
+    }
+    config.init_from = Some(path.to_owned());
+    Ok(config)
+}
+
 /// Runs `train`.
 pub fn run_train(args: &TrainArgs) -> Result<()> {
-    let config = args.options.config()?;
+    let mut config = args.options.config()?;
+    if let Some(path) = &args.init_from {
+        anyhow::ensure!(
+            !args.physics_only,
+            "--init-from fine-tunes on a dataset; --physics-only trains without one"
+        );
+        config = fine_tune_config(config, &args.options, path)?;
+    }
     let options = RunOptions {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         resume: args.resume,
@@ -420,5 +467,34 @@ mod tests {
             vec!["Felt", "Tulle"]
         );
         assert_eq!(config(&[]).split.test_materials.len(), 4);
+    }
+
+    #[test]
+    fn init_from_takes_the_models_architecture_unless_a_flag_sets_it() {
+        let shipped = garmatnet::model::SHIPPED_MODEL;
+        let fine_tune = |extra: &[&str]| {
+            let mut argv = vec!["garmatnet", "--data", "d", "--out", "m.safetensors"];
+            argv.extend_from_slice(extra);
+            let args = Cli::try_parse_from(argv).unwrap().args;
+            let path = args.init_from.clone().unwrap();
+            fine_tune_config(args.options.config().unwrap(), &args.options, &path)
+        };
+        let c = fine_tune(&["--init-from", shipped]).unwrap();
+        let model = GarMatNetModel::load(shipped, &select_device("cpu").unwrap()).unwrap();
+        let net = model.fitting.config();
+        assert_eq!(c.output_rank, net.output_rank);
+        assert!(
+            c.output_rank.is_some(),
+            "the shipped model has a low-rank head"
+        );
+        assert_eq!(
+            (c.pose_hidden, c.material_hidden, c.hidden),
+            (net.pose_hidden, net.material_hidden, net.hidden)
+        );
+        assert_eq!(c.init_from.as_deref(), Some(std::path::Path::new(shipped)));
+        // A flag wins (and the trainer then refuses the mismatch, naming it).
+        let c = fine_tune(&["--init-from", shipped, "--rank", "7"]).unwrap();
+        assert_eq!(c.output_rank, Some(7));
+        assert!(fine_tune(&["--init-from", "no-such-model.safetensors"]).is_err());
     }
 }

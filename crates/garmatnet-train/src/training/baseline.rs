@@ -327,6 +327,7 @@ pub fn train_baseline(
                 ^ u64::from(part == "local");
             ad.seed(seed);
             let settings = LoopSettings {
+                keep_start: false,
                 name: format!("baseline {name} {part}"),
                 learning_rate: config.learning_rate,
                 schedule: config.learning_rate_schedule,

@@ -4,6 +4,7 @@
 pub(crate) mod alpha_sweep;
 pub(crate) mod baseline;
 pub(crate) mod checkpoint;
+pub(crate) mod starting_model;
 pub(crate) mod train_config;
 pub(crate) mod trainer;
 pub(crate) mod training_loop;

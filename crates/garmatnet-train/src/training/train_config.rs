@@ -1,7 +1,7 @@
 //! What defines a training run ([`TrainConfig`], [`RunOptions`]) and the checks made on it
 //! before any work.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use garmatnet_core::DisplacementFrame;
 use garmatnet_model::{GarMatNetConfig, PoseEncoding};
@@ -83,6 +83,14 @@ pub struct TrainConfig {
     /// before the option, stay valid.
     #[serde(skip_serializing_if = "PhysicsConfig::is_off")]
     pub physics: PhysicsConfig,
+    /// Fine-tuning: start both nets from this trained model's weights, and keep its output
+    /// normalisers and low-rank bases, instead of fresh nets (`train --init-from`). The model
+    /// must predict the dataset's template with this configuration's architecture; the run
+    /// then trains on the dataset as any other, early stopping included (the starting
+    /// weights are epoch 0's). `None` (default): fresh nets; not written then, so a default
+    /// run's fingerprint, and the checkpoints of runs begun before the option, stay valid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub init_from: Option<PathBuf>,
     /// Compute device: `cpu`, `gpu` or `auto`.
     pub device: String,
     /// No progress: neither the bar on a terminal nor, elsewhere, the progress lines (one a
@@ -116,6 +124,7 @@ impl Default for TrainConfig {
             allow_incomplete_dataset: false,
             mirrored_samples: false,
             physics: PhysicsConfig::default(),
+            init_from: None,
             device: "cpu".into(),
             quiet: false,
         }

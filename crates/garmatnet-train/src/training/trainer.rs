@@ -26,6 +26,7 @@ use crate::training::checkpoint::LearningRateChange;
 use crate::training::checkpoint::{
     CHECKPOINT_VERSION, CheckpointDir, CheckpointState, NetProgress, Phase,
 };
+use crate::training::starting_model::StartingModel;
 use crate::training::train_config::{RunOptions, TrainConfig, check_model_path};
 use crate::training::training_loop::{
     ExtraLoss, LoopSettings, NetSets, Outcome, Part, epoch_progress, fit_net, fit_net_with,
@@ -153,8 +154,25 @@ pub fn train(
         train_set.append(data.load_mirrored(&split.train, frame)?)?;
     }
     let dev_set = data.load(&split.dev, frame)?;
-    let fitting_norm = fit_normalizer(&train_set.d_fitting, 3 * n)?;
-    let local_norm = fit_normalizer(&train_set.d_local, 3 * n)?;
+    let ad = device.clone().autodiff();
+    // A fine-tuning run starts from a model's nets and keeps its normalisers (the nets'
+    // outputs are in their units); any other run fits them to its training labels.
+    let start = match &config.init_from {
+        Some(path) => Some(StartingModel::load(
+            path,
+            &TemplateInfo::of(data.garment()),
+            &net_config,
+            &ad,
+        )?),
+        None => None,
+    };
+    let (fitting_norm, local_norm) = match &start {
+        Some(s) => (s.model.fitting_norm.clone(), s.model.local_norm.clone()),
+        None => (
+            fit_normalizer(&train_set.d_fitting, 3 * n)?,
+            fit_normalizer(&train_set.d_local, 3 * n)?,
+        ),
+    };
 
     let (_lock, checkpoint, saved) = CheckpointDir::open_for_run(model_path, options.resume)?;
     let fingerprint = config.resume_fingerprint(data.dataset_hash());
@@ -207,7 +225,6 @@ pub fn train(
     }));
 
     let progress = epoch_progress(config.max_epochs, config.quiet);
-    let ad = device.clone().autodiff();
     let mut budget = options.stop_after_epochs;
     let mut summary = TrainSummary {
         finished: false,
@@ -231,6 +248,7 @@ pub fn train(
         weight_decay: config.weight_decay,
         replicate: 1,
         seed: config.seed ^ (phase as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        keep_start: start.is_some(),
     };
 
     // The fitting net: finished in an earlier run, resumed, or trained from scratch.
@@ -250,16 +268,16 @@ pub fn train(
         .merge(state)
     };
     ad.seed(config.seed);
-    let mut fresh_fitting = net_config.init(&ad);
-    if let Some(k) = config.output_rank {
-        set_pca_basis(
-            &mut fresh_fitting,
-            &train_set.d_fitting,
-            &fitting_norm,
-            k,
-            &ad,
-        )?;
-    }
+    let fresh_fitting = match &start {
+        Some(s) => s.model.fitting.clone(),
+        None => {
+            let mut net = net_config.init(&ad);
+            if let Some(k) = config.output_rank {
+                set_pca_basis(&mut net, &train_set.d_fitting, &fitting_norm, k, &ad)?;
+            }
+            net
+        }
+    };
     let (fitting_net, fitting_progress) = match &saved {
         Some(s) if s.phase == Phase::Local => {
             let done = s.fitting_done.clone().ok_or_else(|| Error::Checkpoint {
@@ -291,10 +309,16 @@ pub fn train(
     summary.fitting = Some(NetSummary::from(&fitting_progress));
 
     ad.seed(config.seed ^ 1);
-    let mut fresh_local = net_config.init(&ad);
-    if let Some(k) = config.output_rank {
-        set_pca_basis(&mut fresh_local, &train_set.d_local, &local_norm, k, &ad)?;
-    }
+    let fresh_local = match &start {
+        Some(s) => s.model.local.clone(),
+        None => {
+            let mut net = net_config.init(&ad);
+            if let Some(k) = config.output_rank {
+                set_pca_basis(&mut net, &train_set.d_local, &local_norm, k, &ad)?;
+            }
+            net
+        }
+    };
     let mut local_state = CheckpointState {
         phase: Phase::Local,
         fitting_done: Some(fitting_progress.clone()),
@@ -339,7 +363,7 @@ pub fn train(
     progress.finish();
     summary.local = Some(NetSummary::from(&local_progress));
 
-    let provenance = TrainingProvenance {
+    let mut provenance = TrainingProvenance {
         dataset_hash: data.dataset_hash().to_owned(),
         command: options.command.clone(),
         seed: config.seed,
@@ -352,8 +376,15 @@ pub fn train(
         ]
         .into_iter()
         .collect(),
-        material_range: split.material_range(data.spec()),
-        training_fabrics: split.training_fabrics(data.spec()),
+        // A fine-tuned model has learned its starting model's fabrics too.
+        material_range: match &start {
+            Some(s) => s.merged_range(split.material_range(data.spec())),
+            None => split.material_range(data.spec()),
+        },
+        training_fabrics: match &start {
+            Some(s) => s.merged_fabrics(split.training_fabrics(data.spec())),
+            None => split.training_fabrics(data.spec()),
+        },
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
@@ -364,6 +395,9 @@ pub fn train(
             "learning_rate_changes": learning_rate_changes,
         }),
     };
+    if let (Some(s), Some(extra)) = (&start, provenance.extra.as_object_mut()) {
+        extra.insert("init_from".to_owned(), s.provenance_note());
+    }
     let model = GarMatNetModel {
         fitting: fitting_net.valid(),
         local: local_net.valid(),

@@ -259,6 +259,10 @@ pub(crate) struct LoopSettings {
     /// Passes over the training samples per epoch (the baseline's replication).
     pub(crate) replicate: usize,
     pub(crate) seed: u64,
+    /// Whether the starting weights compete with the epochs' for the best dev loss (a
+    /// fine-tuning run: no epoch worse than the model it started from is kept). Fresh nets
+    /// do not: the first epoch's weights are kept at the least.
+    pub(crate) keep_start: bool,
 }
 
 pub(crate) enum Outcome<M> {
@@ -359,6 +363,9 @@ pub(crate) fn fit_net_with<M: Trainable>(
         _ => {
             let mut p = initial_progress(settings.seed);
             p.initial_dev = mean_loss(&net.valid(), &sets.dev);
+            if settings.keep_start && p.initial_dev.is_finite() {
+                p.best_dev = p.initial_dev;
+            }
             p
         }
     };
@@ -488,6 +495,7 @@ mod tests {
     #[test]
     fn a_divergence_names_what_is_kept_and_how_to_go_on() {
         let settings = LoopSettings {
+            keep_start: false,
             name: "local".into(),
             learning_rate: 1e4,
             schedule: LearningRateSchedule::Constant,
@@ -597,6 +605,7 @@ mod tests {
             train: set,
         };
         let settings = LoopSettings {
+            keep_start: false,
             name: "timing".into(),
             learning_rate: 1e-4,
             schedule: LearningRateSchedule::Constant,
