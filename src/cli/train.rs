@@ -254,9 +254,11 @@ pub struct TrainArgs {
     pub resume: bool,
     /// Fine-tune: start both nets from this trained model (`.safetensors`, e.g. the shipped
     /// one) and keep its normalisers, instead of fresh nets; the dataset must be of the
-    /// model's garment. The architecture (`--hidden`, `--rank`, `--alpha`, `--frame`,
-    /// `--pose-encoding`, `--scale-free-material`) is the model's unless a flag sets it. A
-    /// lower `--lr` than a fresh run's keeps more of what the model learned.
+    /// model's garment, and `--test-materials` must not name a fabric it trained on (the
+    /// shipped model: `none`). The architecture (`--hidden`, `--rank`, `--alpha`, `--frame`,
+    /// `--pose-encoding`, `--scale-free-material`) is the model's unless a flag sets it, also
+    /// over a `--config` file's. A lower `--lr` than a fresh run's keeps more of what the
+    /// model learned.
     #[arg(long)]
     pub init_from: Option<PathBuf>,
     /// Train from the solver's drape energy alone, with no dataset (`--data` is not read):
@@ -332,12 +334,13 @@ fn fine_tune_config(
 /// Runs `train`.
 pub fn run_train(args: &TrainArgs) -> Result<()> {
     let mut config = args.options.config()?;
-    if let Some(path) = &args.init_from {
+    // From the flag or from a `--config` file.
+    if let Some(path) = args.init_from.clone().or_else(|| config.init_from.clone()) {
         anyhow::ensure!(
             !args.physics_only,
             "--init-from fine-tunes on a dataset; --physics-only trains without one"
         );
-        config = fine_tune_config(config, &args.options, path)?;
+        config = fine_tune_config(config, &args.options, &path)?;
     }
     let options = RunOptions {
         command: std::env::args().collect::<Vec<_>>().join(" "),
@@ -390,9 +393,21 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     Ok(())
 }
 
+/// Refuses a `--config` file's `init_from` where training starts from fresh nets only.
+fn no_init_from(config: &TrainConfig, command: &str) -> Result<()> {
+    anyhow::ensure!(
+        config.init_from.is_none(),
+        "`{command}` trains fresh nets: remove `init_from` from the --config file \
+         (`train --init-from` fine-tunes a model)"
+    );
+    Ok(())
+}
+
 /// Runs `train-baseline`.
 pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
-    let config = BaselineConfig::from_train_config(&args.options.config()?);
+    let config = args.options.config()?;
+    no_init_from(&config, "train-baseline")?;
+    let config = BaselineConfig::from_train_config(&config);
     let manifest = train_baseline(args.options.data()?, &args.out, &config)?;
     // How each material's nets trained; the normalisers and the rest of the manifest stay in
     // `baseline.json` (printed whole they ran to 130,000 lines for a 30 x 200 dataset).
@@ -420,6 +435,7 @@ pub fn run_train_baseline(args: &TrainBaselineArgs) -> Result<()> {
 /// Runs `sweep-alpha`.
 pub fn run_sweep_alpha(args: &SweepAlphaArgs) -> Result<()> {
     let config = args.options.config()?;
+    no_init_from(&config, "sweep-alpha")?;
     let alphas = args.alphas.clone().unwrap_or_else(|| PAPER_ALPHAS.to_vec());
     let eval = EvalConfig {
         device: config.device.clone(),

@@ -391,6 +391,15 @@ impl OutputHead {
 }
 
 impl GarMatNet {
+    /// The net with dropout probability `p` in training (fine-tuning a trained net with
+    /// another dropout than it was trained with); its config records it.
+    #[must_use]
+    pub fn with_dropout(mut self, p: f64) -> Self {
+        self.dropout = DropoutConfig::new(p).init();
+        self.config.dropout = p;
+        self
+    }
+
     /// The configuration the net was built from.
     #[must_use]
     pub fn config(&self) -> &GarMatNetConfig {

@@ -16,8 +16,8 @@ pub struct PushOut {
     /// ([`garmatnet_core::push_mesh_outside`], as ground-truth revision 4 records every
     /// drape): where the body is convex a triangle between pushed-out vertices can still cut
     /// under it (the shipped model's predictions at the everyday suite: up to 11 mm at
-    /// arms-crossed; with it at most 0.6 mm). Off by default: it made a prediction five to six
-    /// times slower (28–32 ms against 4.7–6.6 at default resolution,
+    /// arms-crossed; with it at most 0.6 mm). Off by default: it makes a prediction about five
+    /// and a half times slower (17.6–18.3 ms against 3.2–3.3 at default resolution,
     /// `examples/prediction_depth.rs`).
     /// Settings saved without it read as off.
     #[serde(default)]

@@ -56,11 +56,13 @@ pub struct NetProgress {
     pub epoch: usize,
     /// The best dev loss so far (MSE of normalised outputs).
     pub best_dev: f64,
-    /// The epoch (1-based) of the best dev loss.
+    /// The epoch (1-based) of the best dev loss; 0 when a fine-tuning run's starting
+    /// weights are still the best.
     pub best_epoch: usize,
     /// Epochs since the best dev loss.
     pub since_best: usize,
-    /// The dev loss of the untrained net.
+    /// The dev loss of the net before its first epoch (untrained, or the model a
+    /// fine-tuning run starts from).
     pub initial_dev: f64,
     /// The last epoch's training loss.
     pub last_train: f64,

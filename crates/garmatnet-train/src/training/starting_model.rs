@@ -9,13 +9,17 @@ use burn::prelude::*;
 use garmatnet_core::TemplateInfo;
 use garmatnet_model::{GarMatNetConfig, GarMatNetModel, MaterialRange, TrainingFabric};
 
+use crate::data::loader::Fnv1a;
 use crate::error::{Error, Result};
 
 /// The model a run starts from, checked against the run.
 pub(crate) struct StartingModel {
     /// Where it was read from.
     pub(crate) path: PathBuf,
-    /// Its nets (on the training device), normalisers and metadata.
+    /// A hash of the file's bytes (16 hex digits): a resumed run must start from the same
+    /// model, not from whatever lies at the path by then.
+    pub(crate) file_hash: String,
+    /// Its nets (on the training device, with the run's dropout), normalisers and metadata.
     pub(crate) model: GarMatNetModel,
 }
 
@@ -41,55 +45,77 @@ fn architecture(c: &GarMatNetConfig) -> [(&'static str, String); 7] {
 }
 
 impl StartingModel {
-    /// Reads the model at `path` onto `device` and checks that it predicts `template` with
-    /// the architecture of `net_config` (every setting but the dropout).
+    /// Reads the model at `path` onto `device`, checks that it predicts `template` with the
+    /// architecture of `net_config` (every setting but the dropout, which is `net_config`'s
+    /// from then on).
     ///
     /// # Errors
-    /// The model file's own errors ([`Error::Model`]); [`Error::InvalidConfig`] for another
-    /// template or another architecture, naming what differs.
+    /// [`Error::Io`] if the file cannot be read; the model file's own errors
+    /// ([`Error::Model`]), [`garmatnet_model::Error::TemplateMismatch`] among them for another
+    /// garment; [`Error::InvalidConfig`] for another architecture, naming what differs.
     pub(crate) fn load(
         path: &Path,
         template: &TemplateInfo,
         net_config: &GarMatNetConfig,
         device: &Device,
     ) -> Result<Self> {
-        let model = GarMatNetModel::load(path, device)?;
-        if model.meta.template != *template {
-            return Err(Error::InvalidConfig(format!(
-                "the model to start from, `{}`, predicts another garment ({:?}, {} vertices, \
-                 template {}) than the dataset's ({:?}, {} vertices, template {}): start from \
-                 a model of the dataset's template",
-                path.display(),
-                model.meta.template.resolution,
-                model.meta.template.vertex_count,
-                model.meta.template.hash,
-                template.resolution,
-                template.vertex_count,
-                template.hash,
-            )));
-        }
-        for net in [&model.fitting, &model.local] {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let mut hash = Fnv1a::default();
+        hash.write(&bytes);
+        let mut model = GarMatNetModel::load(path, device)?;
+        model.ensure_template(&template.hash, template.vertex_count)?;
+        for (name, net) in [("fitting", &model.fitting), ("local", &model.local)] {
             let differ: Vec<String> = architecture(net.config())
                 .into_iter()
                 .zip(architecture(net_config))
                 .filter(|(a, b)| a.1 != b.1)
-                .map(|((name, theirs), (_, ours))| {
-                    format!("{name}: the model's {theirs}, this run's {ours}")
+                .map(|((field, theirs), (_, ours))| {
+                    format!("{field}: the model's {theirs}, this run's {ours}")
                 })
                 .collect();
             if !differ.is_empty() {
                 return Err(Error::InvalidConfig(format!(
-                    "the model to start from, `{}`, has another architecture ({}): train with \
-                     its settings (the `train` command takes them from the model)",
+                    "the model to start from, `{}`, has a {name} net of another architecture \
+                     ({}): train with its settings (`train --init-from` takes those no flag \
+                     sets from the model)",
                     path.display(),
                     differ.join("; ")
                 )));
             }
         }
+        model.fitting = model.fitting.with_dropout(net_config.dropout);
+        model.local = model.local.with_dropout(net_config.dropout);
         Ok(Self {
             path: path.to_owned(),
+            file_hash: format!("{:016x}", hash.0),
             model,
         })
+    }
+
+    /// Refuses a split that tests, as fabrics never trained on, fabrics the starting model
+    /// trained on: its figures would not be about unseen fabrics.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming them.
+    pub(crate) fn check_unseen(&self, test_materials: &[String]) -> Result<()> {
+        let learned = &self.model.meta.provenance.training_fabrics;
+        let seen: Vec<&str> = test_materials
+            .iter()
+            .map(String::as_str)
+            .filter(|name| learned.iter().any(|f| f.name == *name))
+            .collect();
+        if seen.is_empty() {
+            return Ok(());
+        }
+        Err(Error::InvalidConfig(format!(
+            "the model to start from, `{}`, trained on {}, which this split tests as unseen \
+             fabrics: choose other `--test-materials` (or `none`)",
+            self.path.display(),
+            seen.join(", ")
+        )))
     }
 
     /// What the fine-tuned model's provenance records about where it started.
@@ -97,6 +123,7 @@ impl StartingModel {
         let p = &self.model.meta.provenance;
         serde_json::json!({
             "path": self.path,
+            "file_hash": self.file_hash,
             "dataset_hash": p.dataset_hash,
             "command": p.command,
             "epochs": p.epochs,
@@ -105,15 +132,31 @@ impl StartingModel {
     }
 
     /// The fabrics the fine-tuned model has learned: the starting model's, then this run's
-    /// that it lacks (same name and ω), in the run's order.
-    pub(crate) fn merged_fabrics(&self, run: Vec<TrainingFabric>) -> Vec<TrainingFabric> {
+    /// that it lacks, in the run's order.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] for a fabric of this run named as one of the starting
+    /// model's with another ω (a model file names each fabric once).
+    pub(crate) fn merged_fabrics(&self, run: Vec<TrainingFabric>) -> Result<Vec<TrainingFabric>> {
         let mut all = self.model.meta.provenance.training_fabrics.clone();
         for fabric in run {
-            if !all.contains(&fabric) {
-                all.push(fabric);
+            match all.iter().find(|f| f.name == fabric.name) {
+                Some(f) if f.omega == fabric.omega => {}
+                Some(f) => {
+                    return Err(Error::InvalidConfig(format!(
+                        "the dataset's fabric `{}` (normalised ω {:?}) is not the fabric of \
+                         that name the model to start from, `{}`, trained on (ω {:?}): rename \
+                         one of them",
+                        fabric.name,
+                        fabric.omega,
+                        self.path.display(),
+                        f.omega
+                    )));
+                }
+                None => all.push(fabric),
             }
         }
-        all
+        Ok(all)
     }
 
     /// The box of every material the fine-tuned model has learned: the union of the starting
@@ -221,8 +264,86 @@ mod tests {
         };
         assert!(matches!(
             train(&data, &out, &missing, &RunOptions::default()),
-            Err(Error::Model(garmatnet_model::Error::Io { .. }))
+            Err(Error::Io { .. })
         ));
         assert!(!out.exists(), "no model is written");
+    }
+
+    #[test]
+    fn the_runs_dropout_applies_and_a_split_testing_learned_fabrics_is_refused() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let first = dir.path().join("first.safetensors");
+        train(&data, &first, &tiny_config(2), &RunOptions::default()).unwrap();
+        // Another dropout than the model trained with (tiny_config's 0) is the run's.
+        let tuned = dir.path().join("tuned.safetensors");
+        let config = TrainConfig {
+            init_from: Some(first.clone()),
+            dropout: 0.25,
+            ..tiny_config(1)
+        };
+        train(&data, &tuned, &config, &RunOptions::default()).unwrap();
+        let model = GarMatNetModel::load(&tuned, &Device::flex()).unwrap();
+        assert_eq!(model.fitting.config().dropout, 0.25);
+        assert_eq!(model.local.config().dropout, 0.25);
+        // "Fabric 3" trained the first model: testing it as unseen would not be.
+        let mut leaky = tiny_config(1);
+        leaky.init_from = Some(first.clone());
+        leaky.split.test_materials = vec!["Fabric 3".into(), "Fabric 4".into()];
+        match train(
+            &data,
+            &dir.path().join("leaky.safetensors"),
+            &leaky,
+            &RunOptions::default(),
+        ) {
+            Err(Error::InvalidConfig(m)) => assert!(m.contains("Fabric 3, Fabric 4"), "{m}"),
+            other => panic!("expected InvalidConfig, got {other:?}"),
+        }
+        // A fabric of the model's name with another ω cannot be recorded beside it.
+        let net_config = tiny_config(1).net_config(model.vertex_count());
+        let start = StartingModel::load(&first, &model.meta.template, &net_config, &Device::flex())
+            .unwrap();
+        let mut clash = start.model.meta.provenance.training_fabrics[0].clone();
+        clash.omega[0] = (clash.omega[0] + 0.5) % 1.0;
+        assert!(matches!(
+            start.merged_fabrics(vec![clash]),
+            Err(Error::InvalidConfig(_))
+        ));
+    }
+
+    #[test]
+    fn a_fine_tuning_run_resumes_only_from_the_same_starting_model() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        let first = dir.path().join("first.safetensors");
+        train(&data, &first, &tiny_config(2), &RunOptions::default()).unwrap();
+        let tuned = dir.path().join("tuned.safetensors");
+        let config = TrainConfig {
+            init_from: Some(first.clone()),
+            ..tiny_config(3)
+        };
+        let pause = RunOptions {
+            stop_after_epochs: Some(2),
+            ..RunOptions::default()
+        };
+        assert!(!train(&data, &tuned, &config, &pause).unwrap().finished);
+        // Another model at the same path: the checkpoint is not its fine-tuning.
+        let other = TrainConfig {
+            seed: 7,
+            ..tiny_config(2)
+        };
+        train(&data, &first, &other, &RunOptions::default()).unwrap();
+        let resume = RunOptions {
+            resume: true,
+            ..RunOptions::default()
+        };
+        assert!(matches!(
+            train(&data, &tuned, &config, &resume),
+            Err(Error::Checkpoint { .. })
+        ));
     }
 }

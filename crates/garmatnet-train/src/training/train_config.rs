@@ -83,11 +83,13 @@ pub struct TrainConfig {
     /// before the option, stay valid.
     #[serde(skip_serializing_if = "PhysicsConfig::is_off")]
     pub physics: PhysicsConfig,
-    /// Fine-tuning: start both nets from this trained model's weights, and keep its output
-    /// normalisers and low-rank bases, instead of fresh nets (`train --init-from`). The model
-    /// must predict the dataset's template with this configuration's architecture; the run
-    /// then trains on the dataset as any other, early stopping included (the starting
-    /// weights are epoch 0's). `None` (default): fresh nets; not written then, so a default
+    /// Fine-tuning: start both nets from this trained model (its weights and low-rank bases,
+    /// which train on, and its output normalisers, which are kept) instead of fresh nets
+    /// (`train --init-from`). The model must predict the dataset's template with this
+    /// configuration's architecture (the dropout is this configuration's), and must not have
+    /// trained on the split's target materials; the run then trains on the dataset as any
+    /// other, early stopping included, the starting weights competing as epoch 0's. A resume
+    /// needs the same model file, byte for byte. `None` (default): fresh nets; not written then, so a default
     /// run's fingerprint, and the checkpoints of runs begun before the option, stay valid.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub init_from: Option<PathBuf>,

@@ -38,11 +38,12 @@ use crate::training::training_loop::{
 pub struct NetSummary {
     /// Epochs trained.
     pub epochs: usize,
-    /// The epoch whose weights were kept.
+    /// The epoch whose weights were kept (0: a fine-tuning run's starting weights).
     pub best_epoch: usize,
     /// The kept weights' dev loss (MSE of normalised outputs).
     pub best_dev_mse: f64,
-    /// The untrained net's dev loss.
+    /// The dev loss before the first epoch: of the untrained net, or of the model a
+    /// fine-tuning run starts from.
     pub initial_dev_mse: f64,
     /// The last epoch's training loss.
     pub last_train_mse: f64,
@@ -129,7 +130,11 @@ fn set_pca_basis(
 /// like a file derived from a model path (`{stem}.checkpoint`, `{stem}.lock`,
 /// `{stem}.split.json`);
 /// dataset errors naming the sample;
-/// [`Error::UnknownMaterials`] for absent target materials; [`Error::Checkpoint`] for a
+/// [`Error::UnknownMaterials`] for absent target materials; with
+/// [`TrainConfig::init_from`], the starting model's errors ([`Error::Io`], [`Error::Model`],
+/// another template among them) and [`Error::InvalidConfig`] for another architecture, a
+/// target material it trained on or a fabric named as one of its with another ω;
+/// [`Error::Checkpoint`] for a
 /// checkpoint of another configuration; [`Error::Diverged`] if the loss becomes NaN,
 /// infinite or explodes (no model is written, the last good checkpoint is kept).
 pub fn train(
@@ -148,24 +153,36 @@ pub fn train(
     let n = data.vertex_count();
     let net_config = config.net_config(n);
     net_config.validate()?;
+    let ad = device.clone().autodiff();
+    // A fine-tuning run starts from a model's nets and keeps its normalisers (the nets'
+    // outputs are in their units); any other run fits them to its training labels. What the
+    // model will record is settled here, before any training.
+    let start = match &config.init_from {
+        Some(path) => {
+            let s = StartingModel::load(path, &TemplateInfo::of(data.garment()), &net_config, &ad)?;
+            s.check_unseen(&config.split.test_materials)?;
+            Some(s)
+        }
+        None => None,
+    };
+    let (material_range, training_fabrics, run_key) = match &start {
+        Some(s) => (
+            s.merged_range(split.material_range(data.spec())),
+            s.merged_fabrics(split.training_fabrics(data.spec()))?,
+            format!("{}+{}", data.dataset_hash(), s.file_hash),
+        ),
+        None => (
+            split.material_range(data.spec()),
+            split.training_fabrics(data.spec()),
+            data.dataset_hash().to_owned(),
+        ),
+    };
     let frame = config.displacement_frame;
     let mut train_set = data.load(&split.train, frame)?;
     if config.mirrored_samples {
         train_set.append(data.load_mirrored(&split.train, frame)?)?;
     }
     let dev_set = data.load(&split.dev, frame)?;
-    let ad = device.clone().autodiff();
-    // A fine-tuning run starts from a model's nets and keeps its normalisers (the nets'
-    // outputs are in their units); any other run fits them to its training labels.
-    let start = match &config.init_from {
-        Some(path) => Some(StartingModel::load(
-            path,
-            &TemplateInfo::of(data.garment()),
-            &net_config,
-            &ad,
-        )?),
-        None => None,
-    };
     let (fitting_norm, local_norm) = match &start {
         Some(s) => (s.model.fitting_norm.clone(), s.model.local_norm.clone()),
         None => (
@@ -175,12 +192,13 @@ pub fn train(
     };
 
     let (_lock, checkpoint, saved) = CheckpointDir::open_for_run(model_path, options.resume)?;
-    let fingerprint = config.resume_fingerprint(data.dataset_hash());
+    // A fine-tuning run's key is its dataset and the starting model's bytes.
+    let fingerprint = config.resume_fingerprint(&run_key);
     // Checkpoints written before the learning rate could change on resume carry the
     // fingerprint with it, and resume with that same rate.
     if let Some(s) = &saved
         && s.fingerprint != fingerprint
-        && s.fingerprint != config.fingerprint(data.dataset_hash())
+        && s.fingerprint != config.fingerprint(&run_key)
     {
         return Err(Error::Checkpoint {
             path: checkpoint.path().to_owned(),
@@ -268,7 +286,7 @@ pub fn train(
         .merge(state)
     };
     ad.seed(config.seed);
-    let fresh_fitting = match &start {
+    let initial_fitting = match &start {
         Some(s) => s.model.fitting.clone(),
         None => {
             let mut net = net_config.init(&ad);
@@ -284,13 +302,13 @@ pub fn train(
                 path: checkpoint.path().to_owned(),
                 message: "local phase without the fitting net's record".into(),
             })?;
-            (checkpoint.load_fitting_final(fresh_fitting)?, done)
+            (checkpoint.load_fitting_final(initial_fitting)?, done)
         }
         _ => {
             let sets = NetSets::new(&train_set, &dev_set, Part::Fitting, &fitting_norm, &ad);
             let mut state = fitting_state(saved.clone().filter(|s| s.phase == Phase::Fitting));
             let outcome = fit_net(
-                fresh_fitting,
+                initial_fitting,
                 &sets,
                 &settings(Phase::Fitting, config.patience_fitting),
                 Some((&checkpoint, &mut state)),
@@ -309,7 +327,7 @@ pub fn train(
     summary.fitting = Some(NetSummary::from(&fitting_progress));
 
     ad.seed(config.seed ^ 1);
-    let fresh_local = match &start {
+    let initial_local = match &start {
         Some(s) => s.model.local.clone(),
         None => {
             let mut net = net_config.init(&ad);
@@ -349,7 +367,7 @@ pub fn train(
         })
     };
     let outcome = fit_net_with(
-        fresh_local,
+        initial_local,
         &sets,
         &settings(Phase::Local, config.patience_local),
         Some((&checkpoint, &mut local_state)),
@@ -377,14 +395,8 @@ pub fn train(
         .into_iter()
         .collect(),
         // A fine-tuned model has learned its starting model's fabrics too.
-        material_range: match &start {
-            Some(s) => s.merged_range(split.material_range(data.spec())),
-            None => split.material_range(data.spec()),
-        },
-        training_fabrics: match &start {
-            Some(s) => s.merged_fabrics(split.training_fabrics(data.spec())),
-            None => split.training_fabrics(data.spec()),
-        },
+        material_range,
+        training_fabrics,
         extra: serde_json::json!({
             "dataset_path": data.dir(),
             "split_file": split_file,
