@@ -60,9 +60,11 @@ pub fn run(command: &DatasetCommand) -> Result<()> {
             }
             if !report.is_sound() {
                 outln!(
-                    "not sound: {} samples past the sound stretch (torn or snagged drapes) and \
-                     {} asymmetric at a symmetric pose (listed above): not fit to learn from",
+                    "not sound: {} samples past the sound stretch (torn or snagged drapes), {} \
+                     deeper than 1 mm into the body and {} asymmetric at a symmetric pose \
+                     (listed above): not fit to learn from",
                     report.over_stretched.len(),
+                    report.penetrating.len(),
                     report.asymmetric.len()
                 )?;
             }

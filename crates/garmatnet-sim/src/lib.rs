@@ -19,7 +19,8 @@ pub use dataset::manifest::{
     revision_label, sample_stem,
 };
 pub use dataset::reader::{
-    DatasetReader, DatasetReport, SOUND_ASYMMETRY_M, SOUND_STRETCH, Summary, check,
+    DatasetReader, DatasetReport, SOUND_ASYMMETRY_M, SOUND_PENETRATION_M, SOUND_STRETCH, Summary,
+    check,
 };
 pub use dataset::reuse::{ImportReport, import_samples};
 pub use dataset::sample_arrays::SampleArrays;

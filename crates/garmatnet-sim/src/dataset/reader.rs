@@ -236,6 +236,11 @@ pub struct DatasetReport {
     /// [`SOUND_ASYMMETRY_M`] from its mirror image, as (stem, mean asymmetry in metres), worst
     /// first: a symmetric pose must give a symmetric drape.
     pub asymmetric: Vec<(String, f64)>,
+    /// Samples whose recorded penetration ([`crate::SampleStats::max_penetration_m`]: at the
+    /// vertices, and from revision 4 at points across every triangle too) is past
+    /// [`SOUND_PENETRATION_M`], as (stem, depth in metres), deepest first: cloth sunk into the
+    /// body, usually where it is caught between two body parts.
+    pub penetrating: Vec<(String, f64)>,
 }
 
 /// The sound stretch: the largest strain (length over rest length, minus one) of a
@@ -255,6 +260,12 @@ pub const SOUND_STRETCH: f64 = 1.2;
 /// drapes from a rest drape that drifted to one side (Spandex's, before the rest drape was
 /// restarted symmetric) read 21–63 mm.
 pub const SOUND_ASYMMETRY_M: f64 = 0.02;
+
+/// The deepest a sound drape may reach into the body (metres): issue 48's bound for the
+/// everyday suite's truths, which revision 4 keeps at every sample point of a triangle
+/// (0.74 mm at most at the everyday suite). [`check`] lists every sample past it as
+/// penetrating ([`DatasetReport::is_sound`]).
+pub const SOUND_PENETRATION_M: f64 = 1e-3;
 
 /// Whether a spring of `kind` carries stretch (structural warp and weft, shear) rather than
 /// resisting bending (flexion).
@@ -301,11 +312,15 @@ impl DatasetReport {
     }
 
     /// Whether the dataset [is ok](DatasetReport::is_ok), no sample is stretched past
-    /// [`SOUND_STRETCH`] and none lies past [`SOUND_ASYMMETRY_M`] from its mirror image at a
-    /// symmetric pose: every drape fit to learn from.
+    /// [`SOUND_STRETCH`], none reaches past [`SOUND_PENETRATION_M`] into the body and none
+    /// lies past [`SOUND_ASYMMETRY_M`] from its mirror image at a symmetric pose: every drape
+    /// fit to learn from.
     #[must_use]
     pub fn is_sound(&self) -> bool {
-        self.is_ok() && self.over_stretched.is_empty() && self.asymmetric.is_empty()
+        self.is_ok()
+            && self.over_stretched.is_empty()
+            && self.penetrating.is_empty()
+            && self.asymmetric.is_empty()
     }
 
     /// The finished samples' solver time in worker-hours: divide by the worker count
@@ -421,6 +436,17 @@ impl fmt::Display for DatasetReport {
                 write!(f, "\n  {stem}: strain {strain:.1}")?;
             }
         }
+        if !self.penetrating.is_empty() {
+            write!(
+                f,
+                "\npenetrating (deeper than {:.0} mm into the body: sunk or caught cloth): {}",
+                SOUND_PENETRATION_M * 1e3,
+                self.penetrating.len()
+            )?;
+            for (stem, depth) in &self.penetrating {
+                write!(f, "\n  {stem}: {:.1} mm", depth * 1e3)?;
+            }
+        }
         if self.symmetric_samples > 0 {
             write!(
                 f,
@@ -499,6 +525,13 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
         .filter(|(_, strain)| *strain > SOUND_STRETCH)
         .collect();
     over_stretched.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut penetrating: Vec<(String, f64)> = reader
+        .samples()
+        .iter()
+        .filter(|r| r.stats.max_penetration_m > SOUND_PENETRATION_M)
+        .map(|r| (r.stem.clone(), r.stats.max_penetration_m))
+        .collect();
+    penetrating.sort_by(|a, b| b.1.total_cmp(&a.1));
     asymmetric.sort_by(|a, b| b.1.total_cmp(&a.1));
     Ok(DatasetReport {
         materials: spec.materials.len(),
@@ -522,6 +555,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
         over_stretched,
         symmetric_samples,
         asymmetric,
+        penetrating,
     })
 }
 
@@ -547,6 +581,41 @@ mod tests {
 
     fn sample_file(dir: &Path, stem: &str, name: &str) -> PathBuf {
         samples_dir(dir).join(stem).join(format!("{name}.npy"))
+    }
+
+    #[test]
+    fn samples_deeper_than_a_millimetre_into_the_body_are_listed_and_unsound() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = DatasetWriter::open(dir.path(), tiny_spec()).unwrap();
+        for m in 0..3 {
+            for p in 0..4 {
+                let mut s = stats(0.0);
+                // 1 mm is at the bound, not past it; two samples sink deeper.
+                s.max_penetration_m = match (m, p) {
+                    (1, 2) => 5.6e-3,
+                    (2, 0) => 1.2e-3,
+                    _ => SOUND_PENETRATION_M,
+                };
+                w.write_sample(m, p, &arrays(m, p), s).unwrap();
+            }
+        }
+        let report = check(dir.path()).unwrap();
+        assert!(report.is_ok());
+        assert_eq!(
+            report.penetrating,
+            vec![
+                (crate::sample_stem(1, 2), 5.6e-3),
+                (crate::sample_stem(2, 0), 1.2e-3)
+            ],
+            "deepest first"
+        );
+        assert!(!report.is_sound());
+        let text = report.to_string();
+        assert!(
+            text.contains("penetrating (deeper than 1 mm into the body: sunk or caught cloth): 2"),
+            "{text}"
+        );
+        assert!(text.contains(&format!("{}: 5.6 mm", crate::sample_stem(1, 2))));
     }
 
     #[test]
