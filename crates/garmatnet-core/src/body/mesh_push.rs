@@ -157,12 +157,15 @@ fn push_rounds(
         }
         for (f, depth) in faces.iter().zip(face_depth.iter_mut()) {
             if recompute_all || f.iter().any(|&i| stale[i]) {
-                let (d, asks) =
-                    face_round(f, positions, &vertex_distance, body, &samples, &is_free);
-                *depth = d;
-                for (i, m) in asks {
-                    ask(&mut asked, i, m);
-                }
+                *depth = face_round(
+                    f,
+                    positions,
+                    &vertex_distance,
+                    body,
+                    &samples,
+                    &is_free,
+                    &mut asked,
+                );
             }
         }
         let deepest = vertex_depth
@@ -190,8 +193,8 @@ fn push_rounds(
     report
 }
 
-/// One round of a triangle `f`: the depth of its deepest counted sample point (0 when none
-/// is inside) and the moves its points ask of its corners, in sample order.
+/// One round of a triangle `f`: its sample points' moves asked of its corners ([`ask`], in
+/// sample order), and the depth of its deepest counted sample point (0 when none is inside).
 fn face_round(
     f: &[usize; 3],
     positions: &[Vec3],
@@ -199,9 +202,9 @@ fn face_round(
     body: &(impl SignedDistance + ?Sized),
     samples: &[[Real; 3]],
     is_free: &impl Fn(usize) -> bool,
-) -> (Real, Vec<(usize, Vec3)>) {
+    asked: &mut [Option<Vec3>],
+) -> Real {
     let mut depth: Real = 0.0;
-    let mut asks = Vec::new();
     let corners = f.map(|i| positions[i]);
     let longest = (0..3)
         .map(|k| (corners[k] - corners[(k + 1) % 3]).norm())
@@ -211,7 +214,7 @@ fn face_round(
         .map(|&i| vertex_distance[i])
         .fold(Real::MAX, Real::min);
     if nearest - longest > 0.0 {
-        return (depth, asks);
+        return depth;
     }
     let free = f.map(is_free);
     for w in samples {
@@ -230,10 +233,10 @@ fn face_round(
         }
         let along = unit_normal(&g) * (push_step(-d, &g) / norm);
         for k in (0..3).filter(|&k| free[k] && w[k] > 0.0) {
-            asks.push((f[k], along * w[k]));
+            ask(asked, f[k], along * w[k]);
         }
     }
-    (depth, asks)
+    depth
 }
 
 /// Records that vertex `i` is asked to move by `m`, keeping the largest move asked; two

@@ -9,16 +9,15 @@ use burn::prelude::*;
 use garmatnet_core::TemplateInfo;
 use garmatnet_model::{GarMatNetConfig, GarMatNetModel, MaterialRange, TrainingFabric};
 
-use crate::data::loader::Fnv1a;
 use crate::error::{Error, Result};
 
 /// The model a run starts from, checked against the run.
 pub(crate) struct StartingModel {
     /// Where it was read from.
     pub(crate) path: PathBuf,
-    /// A hash of the file's bytes (16 hex digits): a resumed run must start from the same
-    /// model, not from whatever lies at the path by then.
-    pub(crate) file_hash: String,
+    /// Its [`GarMatNetModel::weights_fingerprint`] (as read, before the run's dropout): a
+    /// resumed run must start from the same model, not from whatever lies at the path by then.
+    pub(crate) fingerprint: String,
     /// Its nets (on the training device, with the run's dropout), normalisers and metadata.
     pub(crate) model: GarMatNetModel,
 }
@@ -59,13 +58,11 @@ impl StartingModel {
         net_config: &GarMatNetConfig,
         device: &Device,
     ) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
+        let mut model = GarMatNetModel::load(path, device).map_err(|e| match e {
+            garmatnet_model::Error::Io { path, source } => Error::Io { path, source },
+            e => e.into(),
         })?;
-        let mut hash = Fnv1a::default();
-        hash.write(&bytes);
-        let mut model = GarMatNetModel::load(path, device)?;
+        let fingerprint = model.weights_fingerprint();
         model.ensure_template(&template.hash, template.vertex_count)?;
         for (name, net) in [("fitting", &model.fitting), ("local", &model.local)] {
             let differ: Vec<String> = architecture(net.config())
@@ -90,7 +87,7 @@ impl StartingModel {
         model.local = model.local.with_dropout(net_config.dropout);
         Ok(Self {
             path: path.to_owned(),
-            file_hash: format!("{:016x}", hash.0),
+            fingerprint,
             model,
         })
     }
@@ -123,7 +120,7 @@ impl StartingModel {
         let p = &self.model.meta.provenance;
         serde_json::json!({
             "path": self.path,
-            "file_hash": self.file_hash,
+            "weights_fingerprint": self.fingerprint,
             "dataset_hash": p.dataset_hash,
             "command": p.command,
             "epochs": p.epochs,
@@ -186,14 +183,21 @@ mod tests {
 
     use super::*;
 
-    #[test]
-    fn a_fine_tuning_run_starts_where_its_model_left_off_and_keeps_no_worse_weights() {
-        let _serial = training_lock();
+    /// A synthetic dataset in a fresh directory and a model trained on it for `epochs`: the
+    /// directory (kept alive), the dataset, the model file and its training summary.
+    fn first_model(epochs: usize) -> (tempfile::TempDir, PathBuf, PathBuf, TrainSummary) {
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("data");
         synthetic_dataset(&data, 6, 20);
         let first = dir.path().join("first.safetensors");
-        let s1 = train(&data, &first, &tiny_config(15), &RunOptions::default()).unwrap();
+        let summary = train(&data, &first, &tiny_config(epochs), &RunOptions::default()).unwrap();
+        (dir, data, first, summary)
+    }
+
+    #[test]
+    fn a_fine_tuning_run_starts_where_its_model_left_off_and_keeps_no_worse_weights() {
+        let _serial = training_lock();
+        let (dir, data, first, s1) = first_model(15);
         let tuned = dir.path().join("tuned.safetensors");
         let config = TrainConfig {
             init_from: Some(first.clone()),
@@ -238,11 +242,7 @@ mod tests {
     #[test]
     fn a_model_of_another_architecture_or_a_missing_file_is_refused_before_training() {
         let _serial = training_lock();
-        let dir = tempfile::tempdir().unwrap();
-        let data = dir.path().join("data");
-        synthetic_dataset(&data, 6, 20);
-        let first = dir.path().join("first.safetensors");
-        train(&data, &first, &tiny_config(2), &RunOptions::default()).unwrap();
+        let (dir, data, first, _) = first_model(2);
         let wider = TrainConfig {
             init_from: Some(first),
             hidden: 48,
@@ -272,11 +272,7 @@ mod tests {
     #[test]
     fn the_runs_dropout_applies_and_a_split_testing_learned_fabrics_is_refused() {
         let _serial = training_lock();
-        let dir = tempfile::tempdir().unwrap();
-        let data = dir.path().join("data");
-        synthetic_dataset(&data, 6, 20);
-        let first = dir.path().join("first.safetensors");
-        train(&data, &first, &tiny_config(2), &RunOptions::default()).unwrap();
+        let (dir, data, first, _) = first_model(2);
         // Another dropout than the model trained with (tiny_config's 0) is the run's.
         let tuned = dir.path().join("tuned.safetensors");
         let config = TrainConfig {
@@ -316,11 +312,7 @@ mod tests {
     #[test]
     fn a_fine_tuning_run_resumes_only_from_the_same_starting_model() {
         let _serial = training_lock();
-        let dir = tempfile::tempdir().unwrap();
-        let data = dir.path().join("data");
-        synthetic_dataset(&data, 6, 20);
-        let first = dir.path().join("first.safetensors");
-        train(&data, &first, &tiny_config(2), &RunOptions::default()).unwrap();
+        let (dir, data, first, _) = first_model(2);
         let tuned = dir.path().join("tuned.safetensors");
         let config = TrainConfig {
             init_from: Some(first.clone()),

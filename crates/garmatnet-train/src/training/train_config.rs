@@ -89,8 +89,10 @@ pub struct TrainConfig {
     /// configuration's architecture (the dropout is this configuration's), and must not have
     /// trained on the split's target materials; the run then trains on the dataset as any
     /// other, early stopping included, the starting weights competing as epoch 0's. A resume
-    /// needs the same model file, byte for byte. `None` (default): fresh nets; not written then, so a default
-    /// run's fingerprint, and the checkpoints of runs begun before the option, stay valid.
+    /// needs the same starting model (its
+    /// [`weights_fingerprint`](garmatnet_model::GarMatNetModel::weights_fingerprint)).
+    /// `None` (default): fresh nets; not written then, so a default run's fingerprint, and
+    /// the checkpoints of runs begun before the option, stay valid.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub init_from: Option<PathBuf>,
     /// Compute device: `cpu`, `gpu` or `auto`.

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use burn::prelude::*;
 use garmatnet_core::TemplateInfo;
 use garmatnet_model::{
-    GarMatNet, GarMatNetModel, ModelMeta, OutputNormalizer, TrainingProvenance, select_device,
+    GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, TrainingProvenance,
+    select_device,
 };
 use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};
@@ -114,6 +115,26 @@ fn set_pca_basis(
     Ok(())
 }
 
+/// The net a phase starts from: the starting model's (a fine-tuning run), or a fresh one
+/// from `net_config` on `device` (seed it first) whose low-rank basis, if it has one, is
+/// initialised with the principal components of `labels`.
+fn initial_net(
+    start: Option<&GarMatNet>,
+    net_config: &GarMatNetConfig,
+    labels: &[f32],
+    norm: &OutputNormalizer,
+    device: &Device,
+) -> Result<GarMatNet> {
+    if let Some(net) = start {
+        return Ok(net.clone());
+    }
+    let mut net = net_config.init(device);
+    if let Some(k) = net_config.output_rank {
+        set_pca_basis(&mut net, labels, norm, k, device)?;
+    }
+    Ok(net)
+}
+
 /// Trains GarMatNet on the dataset in `data_dir` and writes the model to `model_path`, its
 /// split to [`split_path`] and checkpoints to `{stem}.checkpoint/` (removed at the end).
 ///
@@ -169,7 +190,7 @@ pub fn train(
         Some(s) => (
             s.merged_range(split.material_range(data.spec())),
             s.merged_fabrics(split.training_fabrics(data.spec()))?,
-            format!("{}+{}", data.dataset_hash(), s.file_hash),
+            format!("{}+{}", data.dataset_hash(), s.fingerprint),
         ),
         None => (
             split.material_range(data.spec()),
@@ -192,7 +213,7 @@ pub fn train(
     };
 
     let (_lock, checkpoint, saved) = CheckpointDir::open_for_run(model_path, options.resume)?;
-    // A fine-tuning run's key is its dataset and the starting model's bytes.
+    // A fine-tuning run's key is its dataset and the starting model's weights.
     let fingerprint = config.resume_fingerprint(&run_key);
     // Checkpoints written before the learning rate could change on resume carry the
     // fingerprint with it, and resume with that same rate.
@@ -286,16 +307,13 @@ pub fn train(
         .merge(state)
     };
     ad.seed(config.seed);
-    let initial_fitting = match &start {
-        Some(s) => s.model.fitting.clone(),
-        None => {
-            let mut net = net_config.init(&ad);
-            if let Some(k) = config.output_rank {
-                set_pca_basis(&mut net, &train_set.d_fitting, &fitting_norm, k, &ad)?;
-            }
-            net
-        }
-    };
+    let initial_fitting = initial_net(
+        start.as_ref().map(|s| &s.model.fitting),
+        &net_config,
+        &train_set.d_fitting,
+        &fitting_norm,
+        &ad,
+    )?;
     let (fitting_net, fitting_progress) = match &saved {
         Some(s) if s.phase == Phase::Local => {
             let done = s.fitting_done.clone().ok_or_else(|| Error::Checkpoint {
@@ -327,16 +345,13 @@ pub fn train(
     summary.fitting = Some(NetSummary::from(&fitting_progress));
 
     ad.seed(config.seed ^ 1);
-    let initial_local = match &start {
-        Some(s) => s.model.local.clone(),
-        None => {
-            let mut net = net_config.init(&ad);
-            if let Some(k) = config.output_rank {
-                set_pca_basis(&mut net, &train_set.d_local, &local_norm, k, &ad)?;
-            }
-            net
-        }
-    };
+    let initial_local = initial_net(
+        start.as_ref().map(|s| &s.model.local),
+        &net_config,
+        &train_set.d_local,
+        &local_norm,
+        &ad,
+    )?;
     let mut local_state = CheckpointState {
         phase: Phase::Local,
         fitting_done: Some(fitting_progress.clone()),
