@@ -120,6 +120,12 @@ pub struct PoseDrawArgs {
     /// revision-3 datasets'; another share draws other poses for the same seed.
     #[arg(long, value_name = "H,R")]
     pub arm_bands: Option<String>,
+    /// Fraction of independent poses whose arms are placed alike: the right arm points
+    /// within 15° of the left arm's elevation and 25° of its azimuth (mirrored), as in a
+    /// T-pose, an A-pose or a walk's swing. Default 0, the revision-3 and -4 datasets'
+    /// (arms drawn each on its own); another fraction draws other poses for the same seed.
+    #[arg(long, value_name = "P")]
+    pub paired_arms: Option<f64>,
     /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
     /// torso; 0 turns the check off, as datasets made before it existed (resume those with
     /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
@@ -147,7 +153,11 @@ impl PoseDrawArgs {
                 if let Some(text) = arm_bands {
                     [config.hanging_fraction, config.raised_fraction] = arm_band_fractions(text)?;
                 }
-                let sampler = PoseSampler::new(config).context("--arm-bands")?;
+                if let Some(fraction) = self.paired_arms {
+                    config.paired_fraction = fraction;
+                }
+                let sampler =
+                    PoseSampler::new(config).context("--arm-bands or --paired-arms")?;
                 Ok(sampler.poses(n)?)
             }
             MotionKind::Walk(pace) => {
@@ -155,6 +165,12 @@ impl PoseDrawArgs {
                     bail!(
                         "--arm-bands {text} sets how independent poses are drawn, not a walk: \
                          leave out --motion {pace} or --arm-bands"
+                    );
+                }
+                if let Some(fraction) = self.paired_arms {
+                    bail!(
+                        "--paired-arms {fraction} sets how independent poses are drawn, not a \
+                         walk: leave out --motion {pace} or --paired-arms"
                     );
                 }
                 // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator
@@ -412,6 +428,12 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         bail!(
             "--arm-bands {bands} sets how independent poses are drawn: give --poses N, or \
              leave it out"
+        );
+    }
+    if let Some(fraction) = args.draw.paired_arms.filter(|_| count.is_none()) {
+        bail!(
+            "--paired-arms {fraction} sets how independent poses are drawn: give --poses N, \
+             or leave it out"
         );
     }
     let poses = match count {

@@ -42,6 +42,14 @@ pub const DEFAULT_HANGING_FRACTION: Real = 0.5;
 /// The default fraction of arms drawn raised above 45°.
 pub const DEFAULT_RAISED_FRACTION: Real = 0.2;
 
+/// How far (degrees) a paired right arm's elevation lies from the left arm's
+/// ([`PoseSamplerConfig::paired_fraction`]).
+pub const PAIRED_ELEVATION_SPREAD_DEG: Real = 15.0;
+
+/// How far (degrees) a paired right arm's azimuth lies from the left arm's
+/// ([`PoseSamplerConfig::paired_fraction`]).
+pub const PAIRED_AZIMUTH_SPREAD_DEG: Real = 25.0;
+
 /// Settings of [`PoseSampler`]. Missing fields take the defaults when read from JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -60,6 +68,15 @@ pub struct PoseSamplerConfig {
     /// [`DEFAULT_RAISED_FRACTION`]); the rest lie in between. `hanging_fraction +
     /// raised_fraction` is at most 1.
     pub raised_fraction: Real,
+    /// Fraction ∈ [0, 1] of poses whose arms are placed alike (default 0): the right arm
+    /// points within [`PAIRED_ELEVATION_SPREAD_DEG`] of the left arm's elevation and
+    /// [`PAIRED_AZIMUTH_SPREAD_DEG`] of its azimuth (mirrored), its twist and elbow drawn on
+    /// their own. People often hold both arms alike (a T-pose, an A-pose, a walk's swing,
+    /// both arms forward); with independent arms, poses with both arms near the horizontal
+    /// are rare (under 1 in 100 with the default bands), and there a stiff shirt rides up
+    /// most. 0 draws the revision-3 and -4 datasets' poses; any other fraction draws other
+    /// poses for the same seed.
+    pub paired_fraction: Real,
     /// The limits every pose lies within (default [`JointLimits::everyday`]).
     pub limits: JointLimits,
     /// How many poses to draw for one index before giving up with
@@ -75,6 +92,7 @@ impl Default for PoseSamplerConfig {
             arm_gap_m: DEFAULT_ARM_GAP,
             hanging_fraction: DEFAULT_HANGING_FRACTION,
             raised_fraction: DEFAULT_RAISED_FRACTION,
+            paired_fraction: 0.0,
             limits: JointLimits::everyday(),
             max_attempts: 1000,
         }
@@ -132,6 +150,7 @@ impl PoseSampler {
         for (what, value) in [
             ("pose sampler's hanging_fraction", config.hanging_fraction),
             ("pose sampler's raised_fraction", config.raised_fraction),
+            ("pose sampler's paired_fraction", config.paired_fraction),
             (
                 "pose sampler's hanging_fraction + raised_fraction",
                 config.hanging_fraction + config.raised_fraction,
@@ -203,6 +222,11 @@ impl PoseSampler {
             if self.check.worst(&pose).is_some() {
                 continue;
             }
+            // No draw at all when no pose is paired: the default settings' poses stay those
+            // of the revision-3 and -4 datasets.
+            let paired = self.config.paired_fraction > 0.0
+                && rng.next_f64() < self.config.paired_fraction;
+            let mut left = None;
             let mut placed = true;
             for side in [Side::Left, Side::Right] {
                 // The band is kept while the arm is redrawn: hanging arms, refused most
@@ -211,13 +235,17 @@ impl PoseSampler {
                 let mut ok = false;
                 for _ in 0..ARM_RETRIES {
                     let mut candidate = pose.clone();
-                    self.draw_arm(&mut rng, band)
-                        .apply_on(skeleton, &mut candidate, side);
+                    let placement = match left {
+                        Some(first) if paired => self.pair_arm(&mut rng, first),
+                        _ => self.draw_arm(&mut rng, band),
+                    };
+                    placement.apply_on(skeleton, &mut candidate, side);
                     draw_forearm(&mut rng, limits, &mut candidate, side);
                     if limits.validate(&candidate, 0.0).is_ok()
                         && self.check.worst(&candidate).is_none()
                     {
                         pose = candidate;
+                        left = Some(placement);
                         ok = true;
                         break;
                     }
@@ -265,17 +293,20 @@ impl PoseSampler {
                 rng.uniform(deg(-45.0), deg(110.0)),
             )
         };
-        let elbow = if rng.next_f64() < 0.3 {
-            rng.uniform(0.0, 0.25)
-        } else {
-            rng.uniform(0.25, 2.1)
-        };
-        ArmPlacement {
-            elevation_rad: elevation,
-            azimuth_rad: azimuth,
-            twist_rad: rng.uniform(-0.6, 0.6),
-            elbow_flex_rad: elbow,
-        }
+        place_arm(rng, elevation, azimuth)
+    }
+
+    /// The second arm of a paired pose: pointing near where `first` points (within
+    /// [`PAIRED_ELEVATION_SPREAD_DEG`] and [`PAIRED_AZIMUTH_SPREAD_DEG`], kept within the
+    /// bands' overall span), its own twist and elbow bend.
+    fn pair_arm(&self, rng: &mut SplitMix64, first: ArmPlacement) -> ArmPlacement {
+        let deg = |d: Real| d.to_radians();
+        let spread = |rng: &mut SplitMix64, d: Real| rng.uniform(-deg(d), deg(d));
+        let elevation = (first.elevation_rad + spread(rng, PAIRED_ELEVATION_SPREAD_DEG))
+            .clamp(deg(-88.0), deg(85.0));
+        let azimuth = (first.azimuth_rad + spread(rng, PAIRED_AZIMUTH_SPREAD_DEG))
+            .clamp(deg(-45.0), deg(110.0));
+        place_arm(rng, elevation, azimuth)
     }
 
     /// Everything but the arms: torso, legs, weight shift, head.
@@ -390,6 +421,22 @@ impl PoseSampler {
             ),
         );
         pose
+    }
+}
+
+/// An arm pointing at (`elevation`, `azimuth`) with a drawn twist and elbow bend (straight
+/// or nearly so 3 times in 10).
+fn place_arm(rng: &mut SplitMix64, elevation: Real, azimuth: Real) -> ArmPlacement {
+    let elbow = if rng.next_f64() < 0.3 {
+        rng.uniform(0.0, 0.25)
+    } else {
+        rng.uniform(0.25, 2.1)
+    };
+    ArmPlacement {
+        elevation_rad: elevation,
+        azimuth_rad: azimuth,
+        twist_rad: rng.uniform(-0.6, 0.6),
+        elbow_flex_rad: elbow,
     }
 }
 
