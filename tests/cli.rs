@@ -632,6 +632,14 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
             vec!["--poses", "2", "--arm-bands", "0.8,0.3"],
             "together they make at most 1",
         ),
+        (
+            vec!["--poses", "everyday", "--paired-arms", "0.5"],
+            "sets how independent poses are drawn",
+        ),
+        (
+            vec!["--poses", "2", "--paired-arms", "1.5"],
+            "paired_fraction",
+        ),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
     }
@@ -639,7 +647,7 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
 }
 
 /// `poses` writes what `simulate --poses N` drapes, after another file's poses if asked;
-/// another arm share draws other poses; bad input writes nothing.
+/// another arm share or paired arms draw other poses; bad input writes nothing.
 #[test]
 fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
@@ -676,6 +684,27 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
     assert_eq!(joined[..3], first[..]);
     assert_eq!(joined[3..], sampler(9)?.poses(2)?[..]);
     assert_ne!(other[..], joined[3..]);
+    let paired = path("paired.json");
+    run(&[
+        "--count",
+        "2",
+        "--seed",
+        "9",
+        "--paired-arms",
+        "1",
+        "--out",
+        &paired,
+    ])?;
+    assert_eq!(
+        read(&paired)?,
+        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
+            seed: 9,
+            paired_fraction: 1.0,
+            ..Default::default()
+        })?
+        .poses(2)?
+    );
+    assert_ne!(read(&paired)?[..], joined[3..]);
     // After a dataset's poses: an empty shard of one writes its manifest and nothing else.
     let data = path("data");
     stdout_of_success(garmatnet().args([
@@ -723,6 +752,10 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
                 "--arm-bands",
                 "0.3,0.1",
             ],
+            "not a walk",
+        ),
+        (
+            vec!["--count", "2", "--motion", "gentle", "--paired-arms", "0.5"],
             "not a walk",
         ),
         (

@@ -135,13 +135,24 @@ pub struct PoseDrawArgs {
 }
 
 impl PoseDrawArgs {
+    /// The first pose-sampler flag given (`--arm-bands H,R`, `--paired-arms P`), as typed:
+    /// settings that only independent poses drawn here can honour.
+    #[must_use]
+    pub fn sampler_flag(&self) -> Option<String> {
+        self.arm_bands
+            .as_deref()
+            .map(|text| format!("--arm-bands {text}"))
+            .or_else(|| self.paired_arms.map(|p| format!("--paired-arms {p}")))
+    }
+
     /// The `n` poses these settings draw: independent poses of the sampler (with
-    /// `--arm-bands H,R` when given), or a walk keeping the arms `--arm-clearance` off the
-    /// torso.
+    /// `--arm-bands H,R` and `--paired-arms P` when given), or a walk keeping the arms
+    /// `--arm-clearance` off the torso.
     ///
     /// # Errors
-    /// `--arm-bands` that is not two fractions summing to at most 1, or given with a walk;
-    /// an arm clearance outside 0 … 0.1 m for a walk; a pose the sampler cannot draw.
+    /// `--arm-bands` that is not two fractions summing to at most 1, `--paired-arms` outside
+    /// 0 … 1, either given with a walk; an arm clearance outside 0 … 0.1 m for a walk; a pose
+    /// the sampler cannot draw.
     pub fn poses(&self, n: usize) -> Result<Vec<Pose>> {
         let arm_bands = self.arm_bands.as_deref();
         match self.motion {
@@ -156,21 +167,14 @@ impl PoseDrawArgs {
                 if let Some(fraction) = self.paired_arms {
                     config.paired_fraction = fraction;
                 }
-                let sampler =
-                    PoseSampler::new(config).context("--arm-bands or --paired-arms")?;
+                let sampler = PoseSampler::new(config).context("--arm-bands or --paired-arms")?;
                 Ok(sampler.poses(n)?)
             }
             MotionKind::Walk(pace) => {
-                if let Some(text) = arm_bands {
+                if let Some(flag) = self.sampler_flag() {
                     bail!(
-                        "--arm-bands {text} sets how independent poses are drawn, not a walk: \
-                         leave out --motion {pace} or --arm-bands"
-                    );
-                }
-                if let Some(fraction) = self.paired_arms {
-                    bail!(
-                        "--paired-arms {fraction} sets how independent poses are drawn, not a \
-                         walk: leave out --motion {pace} or --paired-arms"
+                        "{flag} sets how independent poses are drawn, not a walk: leave out \
+                         --motion {pace} or {flag}"
                     );
                 }
                 // Refuses a clearance outside 0 … 0.1 m with a message (the walk generator
@@ -424,17 +428,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     ArmClearance::new(args.draw.arm_clearance).context("--arm-clearance")?;
     let mut pose_names = None;
     let count = args.poses.parse::<usize>().ok();
-    if let Some(bands) = args.draw.arm_bands.as_deref().filter(|_| count.is_none()) {
-        bail!(
-            "--arm-bands {bands} sets how independent poses are drawn: give --poses N, or \
-             leave it out"
-        );
-    }
-    if let Some(fraction) = args.draw.paired_arms.filter(|_| count.is_none()) {
-        bail!(
-            "--paired-arms {fraction} sets how independent poses are drawn: give --poses N, \
-             or leave it out"
-        );
+    if let Some(flag) = args.draw.sampler_flag().filter(|_| count.is_none()) {
+        bail!("{flag} sets how independent poses are drawn: give --poses N, or leave it out");
     }
     let poses = match count {
         Some(0) => bail!("--poses 0: ask for at least one pose"),
