@@ -110,8 +110,9 @@ pub struct TrainOptions {
     #[arg(long, value_name = "OFFSET")]
     pub dev_frames: Option<usize>,
     /// Leave samples whose drape did not settle (final residual above this, in vertex
-    /// weights, e.g. 0.1) out of training and development; default: train on every sample.
-    /// Test sets keep them.
+    /// weights, e.g. 0.1) out of training and development; default: no residual limit.
+    /// Drapes caught in the body (recorded penetration past 1 mm: torn or snagged cloth,
+    /// listed by `dataset check`) are always left out. Test sets keep them.
     #[arg(long)]
     pub max_train_residual: Option<f64>,
     /// Train on an incomplete dataset (missing samples are skipped).

@@ -12,7 +12,7 @@ use std::path::Path;
 
 use garmatnet_core::SplitMix64;
 use garmatnet_model::{MaterialRange, TrainingFabric, TrainingProvenance};
-use garmatnet_sim::{DatasetSpec, SampleRecord};
+use garmatnet_sim::{DatasetSpec, SOUND_PENETRATION_M, SampleRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{Fnv1a, SampleKey};
@@ -42,8 +42,10 @@ pub struct Split {
     pub dev: Vec<SampleKey>,
     /// Test samples, sorted.
     pub test: Vec<SampleKey>,
-    /// Samples above `config.max_train_residual`, sorted: in no training or development set
-    /// (test samples among them stay in `test`).
+    /// Samples no net trains on, sorted: those above `config.max_train_residual`, and every
+    /// drape caught in the body (recorded penetration past [`SOUND_PENETRATION_M`], which
+    /// `dataset check` lists as penetrating: torn or snagged cloth). In no training or
+    /// development set; test samples among them stay in `test`.
     #[serde(default)]
     pub unsettled: Vec<SampleKey>,
 }
@@ -100,10 +102,13 @@ impl Split {
                  sample)"
             )));
         }
+        // A drape caught in the body is torn or snagged cloth, whatever its residual: no
+        // net learns from it (a NaN depth is not sound either).
         let settled = |r: &SampleRecord| {
-            config
-                .max_train_residual
-                .is_none_or(|max| r.stats.residual <= max)
+            r.stats.max_penetration_m <= SOUND_PENETRATION_M
+                && config
+                    .max_train_residual
+                    .is_none_or(|max| r.stats.residual <= max)
         };
         let mut unsettled: Vec<SampleKey> = samples
             .iter()
@@ -863,6 +868,45 @@ mod tests {
             let err = Split::new(&spec, &samples, "h", &config).unwrap_err();
             assert!(err.to_string().contains("max_train_residual"), "{err}");
         }
+    }
+
+    #[test]
+    fn drapes_caught_in_the_body_are_never_trained_on_but_stay_in_the_test_set() {
+        let (spec, keys) = (spec(7, 40), all_keys(7, 40));
+        // Every 7th drape sank 5 mm into the body (torn cloth, settled or not); every 7th
+        // another sits exactly at the limit (sound: the limit is inclusive).
+        let depth = |k: &SampleKey| match (k.material * 40 + k.pose) % 7 {
+            0 => 5e-3,
+            1 => SOUND_PENETRATION_M,
+            _ => 0.0,
+        };
+        let samples: Vec<SampleRecord> = settled(&keys)
+            .into_iter()
+            .map(|mut r| {
+                r.stats.max_penetration_m = depth(&SampleKey::of(&r));
+                r
+            })
+            .collect();
+        // Without any residual filter: caught drapes are left out all the same.
+        let split = Split::new(&spec, &samples, "h", &config()).unwrap();
+        let caught: Vec<SampleKey> = keys
+            .iter()
+            .copied()
+            .filter(|k| depth(k) > SOUND_PENETRATION_M)
+            .collect();
+        assert_eq!(split.unsettled, caught);
+        let clean = Split::new(&spec, &settled(&keys), "h", &config()).unwrap();
+        assert_eq!(split.test, clean.test);
+        let is_test = |k: &SampleKey| split.test.binary_search(k).is_ok();
+        let caught_training = caught.iter().filter(|k| !is_test(k)).count();
+        assert!(caught_training > 20, "the fixture must exercise the filter");
+        for k in &caught {
+            assert!(!split.train.contains(k) && !split.dev.contains(k), "{k:?}");
+        }
+        assert_eq!(
+            split.train.len() + split.dev.len() + caught_training,
+            clean.train.len() + clean.dev.len()
+        );
     }
 
     #[test]

@@ -52,6 +52,8 @@ pub struct SplitConfig {
     /// is used, as in splits written before this option. Measured on the brisk 30 × 50
     /// dataset, `Some(0.1)` (55 of 1,500 samples) made no difference beyond run-to-run noise
     /// (book/src/cli.md). Not written when `None`, so default runs keep their fingerprints.
+    /// Drapes caught in the body are left out whatever this is
+    /// ([`Split::unsettled`](crate::Split::unsettled)).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_train_residual: Option<f64>,
 }

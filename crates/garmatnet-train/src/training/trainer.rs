@@ -89,8 +89,9 @@ pub struct TrainSummary {
     /// Training, dev and test sample counts.
     pub samples: [usize; 3],
     /// Samples no net trained on because their drape did not settle (see
-    /// [`SplitConfig::max_train_residual`](crate::SplitConfig::max_train_residual)); those in
-    /// the test set are still tested.
+    /// [`SplitConfig::max_train_residual`](crate::SplitConfig::max_train_residual)) or is
+    /// caught in the body ([`Split::unsettled`](crate::Split::unsettled)); those in the test
+    /// set are still tested.
     #[serde(default)]
     pub unsettled: usize,
 }
