@@ -238,7 +238,7 @@ impl Split {
     }
 
     /// Whether `key` may be trained on by a net that is allowed its material and pose (the
-    /// baseline's own samples): its drape settled.
+    /// baseline's own samples): its drape settled and is not caught in the body.
     #[must_use]
     pub fn is_settled(&self, key: &SampleKey) -> bool {
         self.unsettled.binary_search(key).is_err()

@@ -48,8 +48,8 @@ pub struct SplitConfig {
     /// vertex weight, [`garmatnet_sim::SampleStats::residual`]) above this — are left out
     /// of training and development (and the baseline's training); test sets keep them. A
     /// drape stopped at the solver's iteration cap far from equilibrium is not a static
-    /// drape, and its error enters a squared loss squared. `None` (default): every sample
-    /// is used, as in splits written before this option. Measured on the brisk 30 × 50
+    /// drape, and its error enters a squared loss squared. `None` (default): no residual
+    /// limit, as in splits written before this option. Measured on the brisk 30 × 50
     /// dataset, `Some(0.1)` (55 of 1,500 samples) made no difference beyond run-to-run noise
     /// (book/src/cli.md). Not written when `None`, so default runs keep their fingerprints.
     /// Drapes caught in the body are left out whatever this is

@@ -16,7 +16,7 @@ use garmatnet_model::{
     GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, TrainingProvenance,
     select_device,
 };
-use garmatnet_sim::SequenceSettings;
+use garmatnet_sim::{SOUND_PENETRATION_M, SequenceSettings};
 use serde::{Deserialize, Serialize};
 
 use crate::data::files::split_path;
@@ -145,7 +145,9 @@ fn initial_net(
 /// split's [`Split::fingerprint`](crate::Split::fingerprint) in its provenance, and readers
 /// of the pair ([`crate::Split::read_for_model`]) refuse a split file that is not the one
 /// the model was trained with. A resumed run needs no split file: it recomputes the split
-/// from the dataset and the configuration, which the checkpoint's fingerprint pins.
+/// from the dataset and the configuration, which the checkpoint's fingerprint pins (on a
+/// dataset with a drape caught in the body, with the split's own fingerprint: from version
+/// 0.13 on such drapes are left out, so a checkpoint written before is refused).
 ///
 /// # Errors
 /// [`Error::InvalidConfig`] for bad settings, or a `model_path` that is a directory or named
@@ -198,6 +200,19 @@ pub fn train(
             split.training_fabrics(data.spec()),
             data.dataset_hash().to_owned(),
         ),
+    };
+    // From version 0.13 on, drapes caught in the body are left out of training; a
+    // checkpoint written before, on a dataset with such a drape, was made on another split.
+    // Such runs are keyed by their split too, so those checkpoints are refused instead of
+    // resumed on a split they were not made with.
+    let run_key = if data
+        .records()
+        .iter()
+        .any(|r| !(r.stats.max_penetration_m <= SOUND_PENETRATION_M))
+    {
+        format!("{run_key}/{}", split.fingerprint())
+    } else {
+        run_key
     };
     let frame = config.displacement_frame;
     let mut train_set = data.load(&split.train, frame)?;
@@ -878,6 +893,46 @@ pub(crate) mod tests {
         assert!(matches!(err, Error::Diverged { .. }), "{err}");
         assert!(err.to_string().contains("lower the learning rate"), "{err}");
         assert!(!path.exists(), "a diverged run must not write a model");
+    }
+
+    #[test]
+    fn a_checkpoint_made_before_caught_drapes_were_left_out_is_refused() {
+        let _serial = training_lock();
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        synthetic_dataset(&data, 6, 20);
+        // One training drape sank 5 mm into the body.
+        let stats = data
+            .join("samples")
+            .join(garmatnet_sim::sample_stem(0, 3))
+            .join("stats.json");
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        json["stats"]["max_penetration_m"] = serde_json::json!(5e-3);
+        std::fs::write(&stats, serde_json::to_vec(&json).unwrap()).unwrap();
+        let path = dir.path().join("model.safetensors");
+        let stop = RunOptions {
+            resume: true,
+            stop_after_epochs: Some(1),
+            ..RunOptions::default()
+        };
+        let config = tiny_config(5);
+        assert_eq!(train(&data, &path, &config, &stop).unwrap().unsettled, 1);
+        // This version's checkpoint resumes.
+        train(&data, &path, &config, &stop).unwrap();
+        // One keyed as version 0.12 keyed it (configuration and dataset only), which split
+        // the drape into training, is refused.
+        let hash = TrainingDataset::open(&data, false)
+            .unwrap()
+            .dataset_hash()
+            .to_owned();
+        let state = path.with_extension("checkpoint").join("state.json");
+        let mut saved: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&state).unwrap()).unwrap();
+        saved["fingerprint"] = serde_json::json!(config.resume_fingerprint(&hash));
+        std::fs::write(&state, serde_json::to_vec(&saved).unwrap()).unwrap();
+        let err = train(&data, &path, &config, &stop).unwrap_err();
+        assert!(matches!(err, Error::Checkpoint { .. }), "{err}");
     }
 
     #[test]
