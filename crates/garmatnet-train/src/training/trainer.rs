@@ -205,11 +205,10 @@ pub fn train(
     // checkpoint written before, on a dataset with such a drape, was made on another split.
     // Such runs are keyed by their split too, so those checkpoints are refused instead of
     // resumed on a split they were not made with.
-    let run_key = if data
-        .records()
-        .iter()
-        .any(|r| !(r.stats.max_penetration_m <= SOUND_PENETRATION_M))
-    {
+    let run_key = if data.records().iter().any(|r| {
+        let depth = r.stats.max_penetration_m;
+        depth.is_nan() || depth > SOUND_PENETRATION_M
+    }) {
         format!("{run_key}/{}", split.fingerprint())
     } else {
         run_key
