@@ -598,6 +598,27 @@ mod tests {
                 0.9015199145394341
             )
         );
+        // The right arm too: its shoulder, elbow and wrist come last in the random stream.
+        assert_eq!(
+            pose.joint(17),
+            Vec3::new(
+                -0.13407493562390238,
+                0.15021057076816277,
+                1.1341450571890572
+            )
+        );
+        assert_eq!(
+            pose.joint(19),
+            Vec3::new(-0.02564065154906059, 0.17944440755024102, 0.0)
+        );
+        assert_eq!(
+            pose.joint(21),
+            Vec3::new(
+                -0.21226400803476142,
+                -0.13308342296560968,
+                0.25647807131917216
+            )
+        );
     }
 
     /// Each arm's (elevation, azimuth) in degrees, measured on the posed skeleton in the
