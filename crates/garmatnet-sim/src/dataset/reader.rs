@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use garmatnet_core::{Error, Result, Spring, SpringKind};
 
 use crate::dataset::manifest::{
-    DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, revision_label,
+    DatasetSpec, GROUND_TRUTH_REVISION, Manifest, SampleRecord, SampleStats, revision_label,
 };
 use crate::dataset::sample_arrays::{ARRAY_NAMES, SampleArrays, read_points_npy, solver_positions};
 use crate::dataset::sample_deriver::SampleDeriver;
@@ -266,6 +266,16 @@ pub const SOUND_ASYMMETRY_M: f64 = 0.02;
 /// (0.74 mm at most at the everyday suite). [`check`] lists every sample past it as
 /// penetrating ([`DatasetReport::is_sound`]).
 pub const SOUND_PENETRATION_M: f64 = 1e-3;
+
+impl SampleStats {
+    /// Whether the recorded drape reaches past [`SOUND_PENETRATION_M`] into the body (or its
+    /// depth is not a number): cloth sunk or caught there, torn or snagged. [`check`] lists
+    /// such samples as penetrating, and no net trains on them.
+    #[must_use]
+    pub fn is_caught_in_body(&self) -> bool {
+        self.max_penetration_m.is_nan() || self.max_penetration_m > SOUND_PENETRATION_M
+    }
+}
 
 /// Whether a spring of `kind` carries stretch (structural warp and weft, shear) rather than
 /// resisting bending (flexion).
@@ -528,7 +538,7 @@ pub fn check(dir: impl AsRef<Path>) -> Result<DatasetReport> {
     let mut penetrating: Vec<(String, f64)> = reader
         .samples()
         .iter()
-        .filter(|r| r.stats.max_penetration_m > SOUND_PENETRATION_M)
+        .filter(|r| r.stats.is_caught_in_body())
         .map(|r| (r.stem.clone(), r.stats.max_penetration_m))
         .collect();
     penetrating.sort_by(|a, b| b.1.total_cmp(&a.1));

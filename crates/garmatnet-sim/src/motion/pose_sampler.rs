@@ -236,7 +236,7 @@ impl PoseSampler {
                 for _ in 0..ARM_RETRIES {
                     let mut candidate = pose.clone();
                     let placement = match left {
-                        Some(first) if paired => self.pair_arm(&mut rng, first),
+                        Some(first) if paired => pair_arm(&mut rng, first),
                         _ => self.draw_arm(&mut rng, band),
                     };
                     placement.apply_on(skeleton, &mut candidate, side);
@@ -293,19 +293,6 @@ impl PoseSampler {
                 rng.uniform(deg(-45.0), deg(110.0)),
             )
         };
-        place_arm(rng, elevation, azimuth)
-    }
-
-    /// The second arm of a paired pose: pointing near where `first` points (within
-    /// [`PAIRED_ELEVATION_SPREAD_DEG`] and [`PAIRED_AZIMUTH_SPREAD_DEG`], kept within the
-    /// bands' overall span), its own twist and elbow bend.
-    fn pair_arm(&self, rng: &mut SplitMix64, first: ArmPlacement) -> ArmPlacement {
-        let deg = |d: Real| d.to_radians();
-        let spread = |rng: &mut SplitMix64, d: Real| rng.uniform(-deg(d), deg(d));
-        let elevation = (first.elevation_rad + spread(rng, PAIRED_ELEVATION_SPREAD_DEG))
-            .clamp(deg(-88.0), deg(85.0));
-        let azimuth = (first.azimuth_rad + spread(rng, PAIRED_AZIMUTH_SPREAD_DEG))
-            .clamp(deg(-45.0), deg(110.0));
         place_arm(rng, elevation, azimuth)
     }
 
@@ -422,6 +409,19 @@ impl PoseSampler {
         );
         pose
     }
+}
+
+/// The second arm of a paired pose: pointing near where `first` points (within
+/// [`PAIRED_ELEVATION_SPREAD_DEG`] and [`PAIRED_AZIMUTH_SPREAD_DEG`], kept within the
+/// bands' overall span), its own twist and elbow bend.
+fn pair_arm(rng: &mut SplitMix64, first: ArmPlacement) -> ArmPlacement {
+    let deg = |d: Real| d.to_radians();
+    let spread = |rng: &mut SplitMix64, d: Real| rng.uniform(-deg(d), deg(d));
+    let elevation = (first.elevation_rad + spread(rng, PAIRED_ELEVATION_SPREAD_DEG))
+        .clamp(deg(-88.0), deg(85.0));
+    let azimuth =
+        (first.azimuth_rad + spread(rng, PAIRED_AZIMUTH_SPREAD_DEG)).clamp(deg(-45.0), deg(110.0));
+    place_arm(rng, elevation, azimuth)
 }
 
 /// An arm pointing at (`elevation`, `azimuth`) with a drawn twist and elbow bend (straight

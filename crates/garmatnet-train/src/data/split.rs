@@ -12,7 +12,7 @@ use std::path::Path;
 
 use garmatnet_core::SplitMix64;
 use garmatnet_model::{MaterialRange, TrainingFabric, TrainingProvenance};
-use garmatnet_sim::{DatasetSpec, SOUND_PENETRATION_M, SampleRecord};
+use garmatnet_sim::{DatasetSpec, SampleRecord};
 use serde::{Deserialize, Serialize};
 
 use crate::data::loader::{Fnv1a, SampleKey};
@@ -43,9 +43,10 @@ pub struct Split {
     /// Test samples, sorted.
     pub test: Vec<SampleKey>,
     /// Samples no net trains on, sorted: those above `config.max_train_residual`, and every
-    /// drape caught in the body (recorded penetration past [`SOUND_PENETRATION_M`], which
-    /// `dataset check` lists as penetrating: torn or snagged cloth). In no training or
-    /// development set; test samples among them stay in `test`.
+    /// drape caught in the body
+    /// ([`is_caught_in_body`](garmatnet_sim::SampleStats::is_caught_in_body): recorded
+    /// penetration past 1 mm, which `dataset check` lists as penetrating: torn or snagged
+    /// cloth). In no training or development set; test samples among them stay in `test`.
     #[serde(default)]
     pub unsettled: Vec<SampleKey>,
 }
@@ -103,9 +104,9 @@ impl Split {
             )));
         }
         // A drape caught in the body is torn or snagged cloth, whatever its residual: no
-        // net learns from it (a NaN depth is not sound either).
+        // net learns from it.
         let settled = |r: &SampleRecord| {
-            r.stats.max_penetration_m <= SOUND_PENETRATION_M
+            !r.stats.is_caught_in_body()
                 && config
                     .max_train_residual
                     .is_none_or(|max| r.stats.residual <= max)
@@ -575,7 +576,7 @@ impl crate::data::loader::TrainingDataset {
 mod tests {
     use super::*;
     use garmatnet_core::{Pose, Resolution, TemplateInfo};
-    use garmatnet_sim::{BodyInfo, MaterialEntry, SmoothingInfo};
+    use garmatnet_sim::{BodyInfo, MaterialEntry, SOUND_PENETRATION_M, SmoothingInfo};
 
     fn spec(materials: usize, poses: usize) -> DatasetSpec {
         DatasetSpec {

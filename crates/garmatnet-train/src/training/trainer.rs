@@ -16,7 +16,7 @@ use garmatnet_model::{
     GarMatNet, GarMatNetConfig, GarMatNetModel, ModelMeta, OutputNormalizer, TrainingProvenance,
     select_device,
 };
-use garmatnet_sim::{SOUND_PENETRATION_M, SequenceSettings};
+use garmatnet_sim::SequenceSettings;
 use serde::{Deserialize, Serialize};
 
 use crate::data::files::split_path;
@@ -205,10 +205,7 @@ pub fn train(
     // checkpoint written before, on a dataset with such a drape, was made on another split.
     // Such runs are keyed by their split too, so those checkpoints are refused instead of
     // resumed on a split they were not made with.
-    let run_key = if data.records().iter().any(|r| {
-        let depth = r.stats.max_penetration_m;
-        depth.is_nan() || depth > SOUND_PENETRATION_M
-    }) {
+    let run_key = if data.records().iter().any(|r| r.stats.is_caught_in_body()) {
         format!("{run_key}/{}", split.fingerprint())
     } else {
         run_key
