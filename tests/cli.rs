@@ -640,6 +640,11 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
             vec!["--poses", "2", "--paired-arms", "1.5"],
             "paired_fraction",
         ),
+        (
+            vec!["--poses", "everyday", "--side-arms", "0.5"],
+            "sets how independent poses are drawn",
+        ),
+        (vec!["--poses", "2", "--side-arms", "-1"], "side_fraction"),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
     }
@@ -705,6 +710,30 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
         .poses(2)?
     );
     assert_ne!(read(&paired)?[..], joined[3..]);
+    let side = path("side.json");
+    run(&[
+        "--count",
+        "2",
+        "--seed",
+        "9",
+        "--paired-arms",
+        "1",
+        "--side-arms",
+        "0.5",
+        "--out",
+        &side,
+    ])?;
+    assert_eq!(
+        read(&side)?,
+        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
+            seed: 9,
+            paired_fraction: 1.0,
+            side_fraction: 0.5,
+            ..Default::default()
+        })?
+        .poses(2)?
+    );
+    assert_ne!(read(&side)?, read(&paired)?);
     // After a dataset's poses: an empty shard of one writes its manifest and nothing else.
     let data = path("data");
     stdout_of_success(garmatnet().args([
@@ -756,6 +785,10 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
         ),
         (
             vec!["--count", "2", "--motion", "gentle", "--paired-arms", "0.5"],
+            "not a walk",
+        ),
+        (
+            vec!["--count", "2", "--motion", "brisk", "--side-arms", "0.5"],
             "not a walk",
         ),
         (

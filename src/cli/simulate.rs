@@ -126,6 +126,13 @@ pub struct PoseDrawArgs {
     /// (arms drawn each on its own); another fraction draws other poses for the same seed.
     #[arg(long, value_name = "P")]
     pub paired_arms: Option<f64>,
+    /// Fraction of independent poses with both arms held out to the side near the
+    /// horizontal (each arm's elevation −25° … 25°, azimuth −25° … 35° toward the front),
+    /// as in a T-pose or arms spread for balance; `--paired-arms` applies to the rest.
+    /// Default 0 (the datasets made before it); another fraction draws other poses for the
+    /// same seed.
+    #[arg(long, value_name = "P")]
+    pub side_arms: Option<f64>,
     /// Smallest gap (metres) a walk (`--motion brisk|gentle`) keeps between the arms and the
     /// torso; 0 turns the check off, as datasets made before it existed (resume those with
     /// `--arm-clearance 0`). Independent poses let an arm press up to 3 cm into another body
@@ -135,7 +142,8 @@ pub struct PoseDrawArgs {
 }
 
 impl PoseDrawArgs {
-    /// The first pose-sampler flag given (`--arm-bands H,R`, `--paired-arms P`), as typed:
+    /// The first pose-sampler flag given (`--arm-bands H,R`, `--paired-arms P`,
+    /// `--side-arms P`), as typed:
     /// settings that only independent poses drawn here can honour.
     #[must_use]
     pub fn sampler_flag(&self) -> Option<String> {
@@ -143,15 +151,16 @@ impl PoseDrawArgs {
             .as_deref()
             .map(|text| format!("--arm-bands {text}"))
             .or_else(|| self.paired_arms.map(|p| format!("--paired-arms {p}")))
+            .or_else(|| self.side_arms.map(|p| format!("--side-arms {p}")))
     }
 
     /// The `n` poses these settings draw: independent poses of the sampler (with
-    /// `--arm-bands H,R` and `--paired-arms P` when given), or a walk keeping the arms
-    /// `--arm-clearance` off the torso.
+    /// `--arm-bands H,R`, `--paired-arms P` and `--side-arms P` when given), or a walk
+    /// keeping the arms `--arm-clearance` off the torso.
     ///
     /// # Errors
-    /// `--arm-bands` that is not two fractions summing to at most 1, `--paired-arms` outside
-    /// 0 … 1, either given with a walk; an arm clearance outside 0 … 0.1 m for a walk; a pose
+    /// `--arm-bands` that is not two fractions summing to at most 1, `--paired-arms` or
+    /// `--side-arms` outside 0 … 1, any of them given with a walk; an arm clearance outside 0 … 0.1 m for a walk; a pose
     /// the sampler cannot draw.
     pub fn poses(&self, n: usize) -> Result<Vec<Pose>> {
         let arm_bands = self.arm_bands.as_deref();
@@ -167,7 +176,11 @@ impl PoseDrawArgs {
                 if let Some(fraction) = self.paired_arms {
                     config.paired_fraction = fraction;
                 }
-                let sampler = PoseSampler::new(config).context("--arm-bands or --paired-arms")?;
+                if let Some(fraction) = self.side_arms {
+                    config.side_fraction = fraction;
+                }
+                let sampler = PoseSampler::new(config)
+                    .context("--arm-bands, --paired-arms or --side-arms")?;
                 Ok(sampler.poses(n)?)
             }
             MotionKind::Walk(pace) => {

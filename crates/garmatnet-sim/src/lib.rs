@@ -40,7 +40,8 @@ pub use motion::generator::{
 };
 pub use motion::pose_sampler::{
     DEFAULT_HANGING_FRACTION, DEFAULT_RAISED_FRACTION, PAIRED_AZIMUTH_SPREAD_DEG,
-    PAIRED_ELEVATION_SPREAD_DEG, PoseSampler, PoseSamplerConfig,
+    PAIRED_ELEVATION_SPREAD_DEG, PoseSampler, PoseSamplerConfig, SIDE_AZIMUTH_DEG,
+    SIDE_ELEVATION_DEG,
 };
 pub use motion::pose_spec::{
     DEFAULT_MOTION_FRAMES, DEFAULT_MOTION_SEED, EVERYDAY_POSES, SHIPPED_TRAINING_FRAMES,

@@ -50,6 +50,14 @@ pub const PAIRED_ELEVATION_SPREAD_DEG: Real = 15.0;
 /// ([`PoseSamplerConfig::paired_fraction`]).
 pub const PAIRED_AZIMUTH_SPREAD_DEG: Real = 25.0;
 
+/// The elevations (degrees, lowest and highest) of an arm held out to the side
+/// ([`PoseSamplerConfig::side_fraction`]).
+pub const SIDE_ELEVATION_DEG: [Real; 2] = [-25.0, 25.0];
+
+/// The azimuths (degrees from the side toward the front, lowest and highest) of an arm held
+/// out to the side ([`PoseSamplerConfig::side_fraction`]).
+pub const SIDE_AZIMUTH_DEG: [Real; 2] = [-25.0, 35.0];
+
 /// Settings of [`PoseSampler`]. Missing fields take the defaults when read from JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -77,6 +85,15 @@ pub struct PoseSamplerConfig {
     /// shirt rides up most. 0 draws the revision-3 and -4 datasets' poses; any other
     /// fraction draws other poses for the same seed.
     pub paired_fraction: Real,
+    /// Fraction ∈ [0, 1] of poses with both arms held out to the side near the horizontal
+    /// (default 0): each arm's elevation within [`SIDE_ELEVATION_DEG`] and its azimuth
+    /// within [`SIDE_AZIMUTH_DEG`], drawn on its own, as in a T-pose or a walk's arms
+    /// spread for balance. There the arms lift a shirt most (a stiff one rides up about
+    /// 5 cm), and with the bands and pairing such poses are rare (both arms within 20° of
+    /// the horizontal and 35° of the shoulder line in about 3 % of poses). These poses are
+    /// drawn first; `paired_fraction` applies to the rest. 0 draws the datasets' poses made
+    /// without it; any other fraction draws other poses for the same seed.
+    pub side_fraction: Real,
     /// The limits every pose lies within (default [`JointLimits::everyday`]).
     pub limits: JointLimits,
     /// How many poses to draw for one index before giving up with
@@ -93,6 +110,7 @@ impl Default for PoseSamplerConfig {
             hanging_fraction: DEFAULT_HANGING_FRACTION,
             raised_fraction: DEFAULT_RAISED_FRACTION,
             paired_fraction: 0.0,
+            side_fraction: 0.0,
             limits: JointLimits::everyday(),
             max_attempts: 1000,
         }
@@ -151,6 +169,7 @@ impl PoseSampler {
             ("pose sampler's hanging_fraction", config.hanging_fraction),
             ("pose sampler's raised_fraction", config.raised_fraction),
             ("pose sampler's paired_fraction", config.paired_fraction),
+            ("pose sampler's side_fraction", config.side_fraction),
             (
                 "pose sampler's hanging_fraction + raised_fraction",
                 config.hanging_fraction + config.raised_fraction,
@@ -222,10 +241,11 @@ impl PoseSampler {
             if self.check.worst(&pose).is_some() {
                 continue;
             }
-            // No draw at all when no pose is paired: the default settings' poses stay those
-            // of the revision-3 and -4 datasets.
-            let paired =
-                self.config.paired_fraction > 0.0 && rng.next_f64() < self.config.paired_fraction;
+            // No draw at all for a fraction of 0: the poses of datasets made without side or
+            // paired arms stay as they were.
+            let mut chance = |fraction: Real| fraction > 0.0 && rng.next_f64() < fraction;
+            let out_to_the_side = chance(self.config.side_fraction);
+            let paired = !out_to_the_side && chance(self.config.paired_fraction);
             let mut left = None;
             let mut placed = true;
             for side in [Side::Left, Side::Right] {
@@ -236,6 +256,7 @@ impl PoseSampler {
                 for _ in 0..ARM_RETRIES {
                     let mut candidate = pose.clone();
                     let placement = match left {
+                        _ if out_to_the_side => side_arm(&mut rng),
                         Some(first) if paired => pair_arm(&mut rng, first),
                         _ => self.draw_arm(&mut rng, band),
                     };
@@ -424,6 +445,17 @@ fn pair_arm(rng: &mut SplitMix64, first: ArmPlacement) -> ArmPlacement {
     place_arm(rng, elevation, azimuth)
 }
 
+/// An arm held out to the side near the horizontal (within [`SIDE_ELEVATION_DEG`] and
+/// [`SIDE_AZIMUTH_DEG`]), with a drawn twist and elbow bend.
+fn side_arm(rng: &mut SplitMix64) -> ArmPlacement {
+    let draw = |rng: &mut SplitMix64, [lo, hi]: [Real; 2]| {
+        rng.uniform(lo.to_radians(), hi.to_radians())
+    };
+    let elevation = draw(rng, SIDE_ELEVATION_DEG);
+    let azimuth = draw(rng, SIDE_AZIMUTH_DEG);
+    place_arm(rng, elevation, azimuth)
+}
+
 /// An arm pointing at (`elevation`, `azimuth`) with a drawn twist and elbow bend (straight
 /// or nearly so 3 times in 10).
 fn place_arm(rng: &mut SplitMix64, elevation: Real, azimuth: Real) -> ArmPlacement {
@@ -536,6 +568,10 @@ mod tests {
             },
             PoseSamplerConfig {
                 paired_fraction: 1.2,
+                ..Default::default()
+            },
+            PoseSamplerConfig {
+                side_fraction: -0.1,
                 ..Default::default()
             },
             PoseSamplerConfig {
@@ -676,6 +712,45 @@ mod tests {
         // Independent arms rarely both lie near the horizontal; paired ones often do.
         let (with, without) = (near_horizontal(&paired), near_horizontal(&independent));
         assert!(with > 2 * without, "{with} paired, {without} independent");
+    }
+
+    #[test]
+    fn side_arms_lie_out_to_the_side_near_the_horizontal() {
+        let skeleton = Skeleton::smpl_neutral();
+        let draw = |side_fraction: Real, paired_fraction: Real| {
+            PoseSampler::new(PoseSamplerConfig {
+                seed: 5,
+                hanging_fraction: 0.2,
+                raised_fraction: 0.2,
+                paired_fraction,
+                side_fraction,
+                ..Default::default()
+            })
+            .unwrap()
+            .poses(200)
+            .unwrap()
+        };
+        let within = |[lo, hi]: [Real; 2], value: Real| lo - 1e-6 <= value && value <= hi + 1e-6;
+        let out_to_the_side = |pose: &Pose| {
+            arm_directions(&skeleton, pose).iter().all(|&(elevation, azimuth)| {
+                within(SIDE_ELEVATION_DEG, elevation) && within(SIDE_AZIMUTH_DEG, azimuth)
+            })
+        };
+        // Every arm of every pose exactly in the zone, measured on the posed skeleton.
+        for (i, pose) in draw(1.0, 0.7).iter().enumerate() {
+            assert!(
+                out_to_the_side(pose),
+                "pose {i}: {:?}",
+                arm_directions(&skeleton, pose)
+            );
+        }
+        // A share of them: about that share of poses (±4σ), and the rest as drawn without.
+        let poses = draw(0.3, 0.7);
+        let share = poses.iter().filter(|p| out_to_the_side(p)).count();
+        assert!((35..=95).contains(&share), "{share} of 200");
+        let without = draw(0.0, 0.7);
+        assert!(without.iter().filter(|p| out_to_the_side(p)).count() < 20);
+        assert_ne!(poses, without);
     }
 
     #[test]
