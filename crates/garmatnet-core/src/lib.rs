@@ -17,7 +17,8 @@ mod rng;
 pub use body::anchor::{BodyAnchor, DisplacementFrame};
 pub use body::capsule::Capsule;
 pub use body::capsule_body::{
-    CapsuleBody, DEFAULT_BLEND_RADIUS, PosedBody, REST_MESH_SPACING, SKIN_BLEND_RADIUS,
+    CapsuleBody, DEFAULT_BLEND_RADIUS, POSED_MESH_TOLERANCE, PosedBody, REST_MESH_SPACING,
+    SKIN_BLEND_RADIUS,
 };
 pub use body::capsule_union::{
     DEFAULT_LIMB_ROOTS, LimbRoot, MAX_LIMB_ROOTS, PINCH_HALF_WIDTH, PINCH_SMOOTHING,

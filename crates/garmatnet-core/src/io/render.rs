@@ -101,7 +101,14 @@ pub const BODY_COLOR: Color = [196, 186, 178];
 /// The default garment colour.
 pub const GARMENT_COLOR: Color = [70, 110, 170];
 
-/// Renders `items` seen by `camera`.
+/// How far (metres, along the view) behind an earlier item a later item still shows: a
+/// garment listed after the body it lies on is drawn where the two are in contact, instead of
+/// the body flickering through it where rounding puts the skin a hair in front. Past it the
+/// nearer surface wins, so cloth truly inside the body still shows the body.
+pub const LAYER_TOLERANCE_M: Real = 0.002;
+
+/// Renders `items` seen by `camera`: the nearest surface at each pixel, except that a later
+/// item within [`LAYER_TOLERANCE_M`] behind an earlier one shows (list the body first).
 ///
 /// # Errors
 /// [`Error::RenderSize`] for a zero-sized image or supersampling factor, and
@@ -145,11 +152,13 @@ pub fn render(
         (x, y, z)
     };
     let mut depth = vec![Real::INFINITY; (w * h) as usize];
+    // Which item each pixel shows (usize::MAX: none yet).
+    let mut owner = vec![usize::MAX; (w * h) as usize];
     let mut color = vec![[0.0 as Real; 3]; (w * h) as usize];
     let bg = settings.background.map(|c| c as Real);
     color.iter_mut().for_each(|c| *c = bg);
 
-    for item in items {
+    for (item_index, item) in items.iter().enumerate() {
         let mesh = item.mesh;
         let normals = vertex_normals(mesh);
         let projected: Vec<_> = mesh.vertices.iter().map(project).collect();
@@ -195,8 +204,14 @@ pub fn render(
                     let inv_z = wa / pa.2 + wb / pb.2 + wc / pc.2;
                     let z = 1.0 / inv_z;
                     let idx = (py * w + px) as usize;
-                    if z < depth[idx] {
+                    let tolerance = if owner[idx] < item_index {
+                        LAYER_TOLERANCE_M
+                    } else {
+                        0.0
+                    };
+                    if z < depth[idx] + tolerance {
                         depth[idx] = z;
+                        owner[idx] = item_index;
                         color[idx] = std::array::from_fn(|k| wa * ca[k] + wb * cb[k] + wc * cc[k]);
                     }
                 }
@@ -316,6 +331,37 @@ mod tests {
             supersample: 1,
             ..RenderSettings::default()
         }
+    }
+
+    #[test]
+    fn a_later_item_in_contact_shows_and_one_behind_does_not() {
+        let cam = Camera {
+            eye: Vec3::new(0.0, 0.0, 3.0),
+            target: Vec3::zeros(),
+            up: Vec3::y(),
+            fov_y: 1.0,
+        };
+        let body = quad(0.0, 1.0);
+        let centre = |cloth_z: Real| {
+            let cloth = quad(cloth_z, 0.3);
+            let items = [
+                RenderItem {
+                    mesh: &body,
+                    shading: Shading::Uniform([0, 0, 255]),
+                },
+                RenderItem {
+                    mesh: &cloth,
+                    shading: Shading::Uniform([255, 0, 0]),
+                },
+            ];
+            *render(&items, &cam, &settings()).unwrap().get_pixel(32, 32)
+        };
+        // The cloth 1 mm behind the body's surface (contact): the cloth shows.
+        let contact = centre(-0.001);
+        assert!(contact[0] > 0 && contact[2] == 0, "{contact:?}");
+        // 5 mm behind (inside the body): the body shows.
+        let inside = centre(-0.005);
+        assert!(inside[2] > 0 && inside[0] == 0, "{inside:?}");
     }
 
     #[test]
