@@ -644,7 +644,7 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
             vec!["--poses", "everyday", "--side-arms", "0.5"],
             "sets how independent poses are drawn",
         ),
-        (vec!["--poses", "2", "--side-arms", "-1"], "side_fraction"),
+        (vec!["--poses", "2", "--side-arms", "1.5"], "side_fraction"),
     ] {
         assert_fails_cleanly(&[&base[..], &args].concat(), hint, &out)?;
     }
