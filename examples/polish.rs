@@ -6,7 +6,7 @@
 //! requested frame predicts the shirt with the shipped model (or `$GARMATNET_MODEL`) and
 //! gives that prediction a budget of Newton iterations on the posed body ([`FrameStepper`],
 //! friction measured from the prediction). Prints the time and the mean per-vertex distance
-//! (mm) to the walked drape for each budget. The shipped model (revision 3) trained on
+//! (mm) to the walked drape for each budget. The shipped model (revisions 3 and 4) trained on
 //! independent poses, not on this walk; the revision-1 and revision-2 models trained on it
 //! with every 10th frame held out (book/src/experiments/polish.md measured the first).
 

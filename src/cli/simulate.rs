@@ -160,8 +160,8 @@ impl PoseDrawArgs {
     ///
     /// # Errors
     /// `--arm-bands` that is not two fractions summing to at most 1, `--paired-arms` or
-    /// `--side-arms` outside 0 … 1, any of them given with a walk; an arm clearance outside 0 … 0.1 m for a walk; a pose
-    /// the sampler cannot draw.
+    /// `--side-arms` outside 0 … 1, any of them given with a walk; an arm clearance outside
+    /// 0 … 0.1 m for a walk; a pose the sampler cannot draw.
     pub fn poses(&self, n: usize) -> Result<Vec<Pose>> {
         let arm_bands = self.arm_bands.as_deref();
         match self.motion {

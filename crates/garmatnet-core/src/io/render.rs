@@ -108,7 +108,9 @@ pub const GARMENT_COLOR: Color = [70, 110, 170];
 pub const LAYER_TOLERANCE_M: Real = 0.002;
 
 /// Renders `items` seen by `camera`: the nearest surface at each pixel, except that a later
-/// item within [`LAYER_TOLERANCE_M`] behind an earlier one shows (list the body first).
+/// item within [`LAYER_TOLERANCE_M`] behind an earlier one shows (list the body first). The
+/// pixel then keeps the later item's depth, so with three or more items the allowance can
+/// add up along the list.
 ///
 /// # Errors
 /// [`Error::RenderSize`] for a zero-sized image or supersampling factor, and

@@ -658,6 +658,60 @@ mod tests {
         );
     }
 
+    #[test]
+    fn the_revision_4_datasets_poses_stay_as_drawn() {
+        // Both shoulders of a pose of `data-r4m`, `data-r4p` and `data-r4s`, read from their
+        // manifests: a change to the bands, the pairing or the side share that moved them
+        // would orphan those datasets as a change to the defaults would orphan revision 3's.
+        let draw = |seed, bands: Real, paired_fraction, side_fraction, index| {
+            let pose = PoseSampler::new(PoseSamplerConfig {
+                seed,
+                hanging_fraction: bands,
+                raised_fraction: bands,
+                paired_fraction,
+                side_fraction,
+                ..Default::default()
+            })
+            .unwrap()
+            .pose(index)
+            .unwrap();
+            [pose.joint(16), pose.joint(17)]
+        };
+        assert_eq!(
+            draw(2, 0.1, 0.0, 0.0, 0),
+            [
+                Vec3::new(
+                    -0.6628600209373324,
+                    -0.8868327661040407,
+                    -0.8228088574620732
+                ),
+                Vec3::new(0.39019129705791217, 0.3323439630234299, -0.5302286454876103)
+            ]
+        );
+        assert_eq!(
+            draw(3, 0.2, 0.7, 0.0, 0),
+            [
+                Vec3::new(0.024869348467782756, -0.4164149591925291, 1.195048903560445),
+                Vec3::new(
+                    -0.3470157897315621,
+                    0.44268953596864263,
+                    -1.2749081514888307
+                )
+            ]
+        );
+        assert_eq!(
+            draw(4, 0.2, 0.7, 0.5, 5),
+            [
+                Vec3::new(0.5533170295306986, 0.35006747861579957, 0.11475913308113514),
+                Vec3::new(
+                    0.30603133409397304,
+                    0.06322024000373792,
+                    -0.12827431473673814
+                )
+            ]
+        );
+    }
+
     /// Each arm's (elevation, azimuth) in degrees, measured on the posed skeleton in the
     /// chest's frame; the right arm's mirrored, so alike arms give alike numbers.
     fn arm_directions(skeleton: &Skeleton, pose: &Pose) -> [(Real, Real); 2] {

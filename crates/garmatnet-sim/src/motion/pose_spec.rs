@@ -115,7 +115,7 @@ fn pose_list(spec: &str) -> Result<Vec<Pose>> {
 /// The frames of the revision-2 model's training walk (the model shipped up to version 0.3):
 /// [`DEFAULT_MOTION_SEED`], [`SHIPPED_TRAINING_FRAMES`] frames at the default pace and arm
 /// clearance, the poses of `garmatnet simulate --poses 200 --seed 0 --motion brisk` (the
-/// default before independent poses). The model shipped now (revision 3) was trained on
+/// default before independent poses). The model shipped now (revisions 3 and 4) was trained on
 /// independent poses of the sampler, not on these frames. `frames` as in [`resolve_frames`].
 ///
 /// # Errors
