@@ -655,6 +655,7 @@ fn simulate_refuses_settings_it_cannot_honour_before_writing() -> anyhow::Result
 /// another arm share or paired arms draw other poses; bad input writes nothing.
 #[test]
 fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
+    use garmatnet::sim::{PoseSampler, PoseSamplerConfig};
     let dir = tempfile::tempdir()?;
     let path = |name: &str| dir.path().join(name).display().to_string();
     let (first, joined, other) = (path("first.json"), path("joined.json"), path("other.json"));
@@ -679,59 +680,44 @@ fn poses_writes_the_sampler_poses_after_another_file() -> anyhow::Result<()> {
     ])?;
     let read = |p: &str| garmatnet::core::read_poses(p);
     let (first, joined, other) = (read(&first)?, read(&joined)?, read(&other)?);
-    let sampler = |seed| {
-        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
-            seed,
-            ..Default::default()
-        })
+    let drawn = |config: PoseSamplerConfig, count| -> anyhow::Result<Vec<_>> {
+        Ok(PoseSampler::new(config)?.poses(count)?)
     };
-    assert_eq!(first, sampler(4)?.poses(3)?);
+    let seeded = |seed| PoseSamplerConfig {
+        seed,
+        ..Default::default()
+    };
+    assert_eq!(first, drawn(seeded(4), 3)?);
     assert_eq!(joined[..3], first[..]);
-    assert_eq!(joined[3..], sampler(9)?.poses(2)?[..]);
+    assert_eq!(joined[3..], drawn(seeded(9), 2)?[..]);
     assert_ne!(other[..], joined[3..]);
-    let paired = path("paired.json");
-    run(&[
-        "--count",
-        "2",
-        "--seed",
-        "9",
-        "--paired-arms",
-        "1",
-        "--out",
-        &paired,
-    ])?;
-    assert_eq!(
-        read(&paired)?,
-        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
-            seed: 9,
-            paired_fraction: 1.0,
-            ..Default::default()
-        })?
-        .poses(2)?
-    );
+    // Two poses of seed 9 with the sampler's flags, as the sampler draws them.
+    let (paired, side) = (path("paired.json"), path("side.json"));
+    for (flags, out) in [
+        (&["--paired-arms", "1"][..], &paired),
+        (&["--paired-arms", "1", "--side-arms", "0.5"][..], &side),
+    ] {
+        run(&[
+            &["--count", "2", "--seed", "9", "--out", out.as_str()][..],
+            flags,
+        ]
+        .concat())?;
+    }
+    let paired_config = PoseSamplerConfig {
+        paired_fraction: 1.0,
+        ..seeded(9)
+    };
+    assert_eq!(read(&paired)?, drawn(paired_config.clone(), 2)?);
     assert_ne!(read(&paired)?[..], joined[3..]);
-    let side = path("side.json");
-    run(&[
-        "--count",
-        "2",
-        "--seed",
-        "9",
-        "--paired-arms",
-        "1",
-        "--side-arms",
-        "0.5",
-        "--out",
-        &side,
-    ])?;
     assert_eq!(
         read(&side)?,
-        garmatnet::sim::PoseSampler::new(garmatnet::sim::PoseSamplerConfig {
-            seed: 9,
-            paired_fraction: 1.0,
-            side_fraction: 0.5,
-            ..Default::default()
-        })?
-        .poses(2)?
+        drawn(
+            PoseSamplerConfig {
+                side_fraction: 0.5,
+                ..paired_config
+            },
+            2
+        )?
     );
     assert_ne!(read(&side)?, read(&paired)?);
     // After a dataset's poses: an empty shard of one writes its manifest and nothing else.

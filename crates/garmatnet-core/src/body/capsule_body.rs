@@ -783,8 +783,9 @@ mod tests {
         ] {
             pose.set_joint(joint, Vec3::new(x, y, z));
         }
-        let posed = body().pose(&pose);
-        let rest = body().skinned_mesh();
+        let body = body();
+        let posed = body.pose(&pose);
+        let rest = body.skinned_mesh();
         let skinned_out = rest
             .mesh
             .vertices
