@@ -54,6 +54,7 @@ pub use predict::material_range;
 pub use predict::material_range::{
     FAR_FROM_TRAINING, MaterialRange, OutsideComponent, TrainingFabric,
 };
-pub use predict::predictor::{Detail, GarmentMesh, Predictor, SEQUENCE_BATCH, SequencePredictions};
+pub use predict::predictor::{Detail, GarmentMesh, Predictor};
 pub use predict::push_out::{MAX_PUSH_OUT_EPSILON, PushOut, PushOutReport, push_out};
 pub use predict::scene::{Character, CharacterOutput, Scene, SceneUpdate};
+pub use predict::sequence::{SEQUENCE_BATCH, SequencePredictions};

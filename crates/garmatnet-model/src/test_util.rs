@@ -149,6 +149,16 @@ pub(crate) fn test_twins() -> Vec<u32> {
     (0..TEST_VERTICES as u32).map(|i| i ^ 1).collect()
 }
 
+/// A predictor over [`small_model`] of `seed`, both nets predicting in `frame`.
+pub(crate) fn small_predictor(seed: u64, frame: garmatnet_core::DisplacementFrame) -> Predictor {
+    let dev = cpu();
+    let mut model = small_model(seed, None, &dev);
+    for net in [&mut model.fitting, &mut model.local] {
+        net.config.displacement_frame = frame;
+    }
+    test_predictor(model, &dev)
+}
+
 /// A predictor over `model` with the test template's faces and anchors on SMPL's skeleton.
 pub(crate) fn test_predictor(model: GarMatNetModel, dev: &Device) -> Predictor {
     Predictor::new(

@@ -539,7 +539,7 @@ impl Predictor {
         detail: Detail,
     ) -> Result<Vec<GarmentMesh>> {
         let mut out = Vec::with_capacity(poses.len());
-        for chunk in poses.chunks(crate::predict::predictor::SEQUENCE_BATCH) {
+        for chunk in poses.chunks(crate::predict::sequence::SEQUENCE_BATCH) {
             let meshes = self.calibrated_batch(chunk, calibration, detail)?;
             out.extend(self.pushed_out(meshes, chunk));
         }

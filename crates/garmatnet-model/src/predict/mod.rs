@@ -6,3 +6,4 @@ pub mod material_range;
 pub(crate) mod predictor;
 pub(crate) mod push_out;
 pub(crate) mod scene;
+pub(crate) mod sequence;

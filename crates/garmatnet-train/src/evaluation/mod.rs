@@ -10,3 +10,4 @@ pub(crate) mod plots;
 pub(crate) mod prediction_errors;
 pub(crate) mod report;
 pub(crate) mod report_markdown;
+pub(crate) mod sample_measures;
