@@ -8,7 +8,7 @@ use garmatnet::core::{DisplacementFrame, Resolution};
 use garmatnet::model::{GarMatNetModel, PoseEncoding, select_device};
 use garmatnet::train::{
     BASELINE_MANIFEST, BaselineConfig, EvalConfig, LearningRateSchedule, PAPER_ALPHAS,
-    PhysicsOnlyConfig, RunOptions, TrainConfig, sweep_alpha, train, train_baseline,
+    PhysicsOnlyConfig, RunOptions, TrainConfig, TrainSummary, sweep_alpha, train, train_baseline,
     train_physics_only,
 };
 
@@ -391,7 +391,34 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     }
     let summary = train(args.options.data()?, &args.out, &config, &options)?;
     outln!("{}", serde_json::to_string_pretty(&summary)?)?;
+    if config.init_from.is_some() {
+        for warning in kept_start_warnings(&summary) {
+            warnln!("{warning}");
+        }
+    }
     Ok(())
+}
+
+/// A fine-tuning run's nets that kept the starting model's weights (`best_epoch` 0: no epoch
+/// beat its development loss), each with what that usually means and what to do.
+fn kept_start_warnings(summary: &TrainSummary) -> Vec<String> {
+    [
+        ("generally-fitting", &summary.fitting),
+        ("locally-detailed", &summary.local),
+    ]
+    .into_iter()
+    .filter_map(|(name, net)| {
+        let net = net.as_ref().filter(|n| n.epochs > 0 && n.best_epoch == 0)?;
+        Some(format!(
+            "warning: the {name} net kept the starting model's weights: none of its {} epochs \
+             beat their development loss ({:.4}). The development set is drawn from this \
+             dataset's samples; if the starting model trained on many of them (a fine-tuned \
+             model fine-tuned again on a superset of its data), it already fits them. Start \
+             from a model this data is new to.",
+            net.epochs, net.initial_dev_mse
+        ))
+    })
+    .collect()
 }
 
 /// Refuses a `--config` file's `init_from` where training starts from fresh nets only.
@@ -456,6 +483,49 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         args: TrainArgs,
+    }
+
+    #[test]
+    fn a_fine_tune_that_kept_its_start_is_warned_about_net_by_net() {
+        let net = |epochs, best_epoch| garmatnet::train::NetSummary {
+            epochs,
+            best_epoch,
+            best_dev_mse: 0.05,
+            initial_dev_mse: 0.05,
+            last_train_mse: 0.06,
+            seconds_per_epoch: 1.0,
+        };
+        let summary = |fitting, local| TrainSummary {
+            finished: true,
+            model_path: "m.safetensors".into(),
+            split_path: "m.split.json".into(),
+            checkpoint_dir: "m.checkpoint".into(),
+            resumed_from: None,
+            learning_rate_changes: Vec::new(),
+            fitting,
+            local,
+            samples: [90, 10, 10],
+            unsettled: 0,
+        };
+        let warnings = kept_start_warnings(&summary(Some(net(50, 0)), Some(net(150, 12))));
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(
+            warnings[0].contains("generally-fitting net kept"),
+            "{}",
+            warnings[0]
+        );
+        assert!(
+            warnings[0].contains("none of its 50 epochs"),
+            "{}",
+            warnings[0]
+        );
+        assert!(warnings[0].contains("(0.0500)"), "{}", warnings[0]);
+        let both = kept_start_warnings(&summary(Some(net(50, 0)), Some(net(200, 0))));
+        assert_eq!(both.len(), 2);
+        assert!(both[1].contains("locally-detailed"), "{}", both[1]);
+        // Nets that improved, or that have not trained yet, draw no warning.
+        assert!(kept_start_warnings(&summary(Some(net(100, 99)), None)).is_empty());
+        assert!(kept_start_warnings(&summary(Some(net(0, 0)), None)).is_empty());
     }
 
     fn config(extra: &[&str]) -> TrainConfig {
