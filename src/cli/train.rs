@@ -411,8 +411,8 @@ fn kept_start_warnings(summary: &TrainSummary) -> Vec<String> {
         let net = net.as_ref().filter(|n| n.epochs > 0 && n.best_epoch == 0)?;
         Some(format!(
             "warning: the {name} net kept the starting model's weights: none of its {} epochs \
-             beat their development loss ({:.4}). The development set is drawn from this \
-             dataset's samples; if the starting model trained on many of them (a fine-tuned \
+             beat the start's development loss ({:.4}). The development set is drawn \
+             from this dataset's samples; if the starting model trained on many of them (a fine-tuned \
              model fine-tuned again on a superset of its data), it already fits them. Start \
              from a model this data is new to.",
             net.epochs, net.initial_dev_mse
