@@ -410,11 +410,11 @@ fn kept_start_warnings(summary: &TrainSummary) -> Vec<String> {
     .filter_map(|(name, net)| {
         let net = net.as_ref().filter(|n| n.epochs > 0 && n.best_epoch == 0)?;
         Some(format!(
-            "warning: the {name} net kept the starting model's weights: none of its {} epochs \
-             beat the start's development loss ({:.4}). The development set is drawn \
-             from this dataset's samples; if the starting model trained on many of them (a fine-tuned \
-             model fine-tuned again on a superset of its data), it already fits them. Start \
-             from a model this data is new to.",
+            "warning: the {name} net kept the starting model's weights: none of its {} epochs beat \
+             the start's development loss ({:.4}). The development set is drawn from this \
+             dataset's samples; if the starting model trained on many of them (a fine-tuned model \
+             fine-tuned again on a superset of its data), it already fits them. Start from a model \
+             this data is new to.",
             net.epochs, net.initial_dev_mse
         ))
     })
