@@ -111,9 +111,9 @@ impl Predictor {
     /// ```
     ///
     /// # Errors
-    /// As [`Predictor::predict`], at once, for the material; [`Error::InvalidPose`], at once,
-    /// for the first unusable pose (with its index). A batch that fails later is an error item
-    /// ([`SequencePredictions`]).
+    /// As [`Predictor::predict`], at once, for the material;
+    /// [`Error::InvalidPose`](crate::Error::InvalidPose), at once, for the first unusable pose
+    /// (with its index). A batch that fails later is an error item ([`SequencePredictions`]).
     pub fn sequence<'a>(
         &'a self,
         poses: &'a [Pose],
@@ -144,8 +144,8 @@ impl Predictor {
     ///
     /// # Errors
     /// As [`Predictor::predict_normalized`], at once, for ω outside [0, 1] or not finite;
-    /// [`Error::InvalidPose`], at once, for the first unusable pose (with its index). A batch
-    /// that fails later is an error item ([`SequencePredictions`]).
+    /// [`Error::InvalidPose`](crate::Error::InvalidPose), at once, for the first unusable pose
+    /// (with its index). A batch that fails later is an error item ([`SequencePredictions`]).
     pub fn sequence_normalized<'a>(
         &'a self,
         poses: &'a [Pose],
