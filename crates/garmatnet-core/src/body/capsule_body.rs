@@ -348,10 +348,11 @@ impl PosedBody {
     /// The rest mesh ([`CapsuleBody::rest_mesh`]) posed by linear blend skinning, each vertex
     /// that lies more than [`POSED_MESH_TOLERANCE`] off the posed surface (the distance field
     /// the solver drapes against) then moved onto it by up to four Newton steps along the
-    /// field's gradient, stopping where the gradient is short (a crevice's mid-plane). Skinning alone is not rigid at the
-    /// joints: with both arms out to the side near the horizontal it puts parts of the chest
-    /// up to 5 cm outside the surface, in front of a drape lying on it, and a render would
-    /// show the body through the cloth where the cloth is whole.
+    /// field's gradient, stopping where the gradient is short (a crevice's mid-plane).
+    /// Skinning alone is not rigid at the joints: with both arms out to the side near the
+    /// horizontal it puts parts of the chest up to 5 cm outside the surface, in front of a
+    /// drape lying on it, and a render would show the body through the cloth where the cloth
+    /// is whole.
     #[must_use]
     pub fn mesh(&self) -> TriMesh {
         let rest = self.body.skinned_mesh();

@@ -152,13 +152,12 @@ impl Predictor {
         material: &[Real; MATERIAL_DIM],
         detail: Detail,
     ) -> Result<SequencePredictions<'a>> {
-        let normalized = *material;
-        validate_material(&normalized)?;
+        validate_material(material)?;
         validate_poses(poses)?;
         Ok(SequencePredictions {
             predictor: self,
             batches: poses.chunks(SEQUENCE_BATCH),
-            material: normalized,
+            material: *material,
             detail,
             ready: Vec::new().into_iter(),
             failed: false,
