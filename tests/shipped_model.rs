@@ -102,7 +102,7 @@ fn the_shipped_model_drapes_a_symmetric_pose_symmetrically() -> anyhow::Result<(
         let fabric = Material::preset(name)?;
         let a = asymmetry(&averaged.predict(&pose, &fabric, Detail::Full)?.vertices)?;
         let r = asymmetry(&raw.predict(&pose, &fabric, Detail::Full)?.vertices)?;
-        // Measured: averaged 0.01 mm, raw 6.51 (Cashmere) and 5.68 mm (Denim Heavy); the
+        // Measured: averaged 0.01 mm, raw 4.84 (Cashmere) and 3.81 mm (Denim Heavy); the
         // truth at the everyday suite's symmetric poses: 0.56 mm on average.
         assert!(
             a < 0.5e-3,
@@ -111,7 +111,7 @@ fn the_shipped_model_drapes_a_symmetric_pose_symmetrically() -> anyhow::Result<(
         // A tripwire, not a requirement: it shows the check above can fail. A retrained model
         // whose own nets are symmetric trips it; then drop it.
         assert!(
-            r > 5e-3,
+            r > 2e-3,
             "{name}: the shipped nets alone were measured lopsided, now {r} m: retrained?"
         );
     }
@@ -119,7 +119,7 @@ fn the_shipped_model_drapes_a_symmetric_pose_symmetrically() -> anyhow::Result<(
 }
 
 /// Push-out acts at the vertices, and at arms-crossed the shipped model's Trim Fusible Rigid
-/// still cuts under the forearm between them (15.13 mm measured); with `PushOut::faces` no
+/// still cuts under the forearm between them (14.07 mm measured); with `PushOut::faces` no
 /// point of its triangles is left more than 1 mm inside.
 #[test]
 fn pushing_the_faces_out_clears_the_predicted_triangles_from_the_body() -> anyhow::Result<()> {
