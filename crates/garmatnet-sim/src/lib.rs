@@ -54,16 +54,17 @@ pub use motion::self_intersection::{
 pub use solver::canonical::{
     CANONICAL_SURFACE_STEP, CanonicalDraper, DrapeProtocol, canonical_settings,
 };
-pub use solver::cloth_model::{ClothModel, SpringSpec};
+pub use solver::cloth_model::{ClothModel, SpringSpec, cloth_from_garment};
 pub use solver::contact::EmptySpace;
 pub use solver::drape_energy::{
     EnergyTerms, HARDENING_DEPTH, contact_stiffness, drape_energy_and_gradient,
 };
 pub use solver::drape_settings::{DrapeSettings, FactorPrecision};
 pub use solver::drape_solver::{DrapeSolver, DrapeStats, force_residual};
+pub use solver::frame_stepper::FrameStepper;
 pub use solver::garment_drape::{
-    FrameStepper, LANDING_ITERATIONS, SequenceResume, SequenceSettings, cloth_from_garment,
-    drape_poses, drape_sequence, settle_at_rest, settle_rest_drape, surface_steps,
+    LANDING_ITERATIONS, SequenceResume, SequenceSettings, drape_poses, drape_sequence,
+    settle_at_rest, settle_rest_drape, surface_steps,
 };
 pub use solver::grid_sheet::{SheetStiffness, grid_sheet};
 pub use solver::mirror_symmetry::{MIRROR_TOLERANCE, MirrorMap, mirror_asymmetry, mirror_point};

@@ -18,12 +18,11 @@ use garmatnet_core::{CapsuleBody, Garment, Material, Pose, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
+use crate::solver::cloth_model::cloth_from_garment;
 use crate::solver::drape_settings::DrapeSettings;
 use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
-use crate::solver::garment_drape::{
-    FrameStepper, SequenceSettings, cloth_from_garment, round_to_f32, settle_rest_drape,
-    surface_steps,
-};
+use crate::solver::frame_stepper::{FrameStepper, round_to_f32};
+use crate::solver::garment_drape::{SequenceSettings, settle_rest_drape, surface_steps};
 
 /// How a dataset's samples are draped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! The cloth as Provot's mass-spring system: rest positions, springs and per-vertex masses.
 
 use garmatnet_core::error::ensure_finite;
-use garmatnet_core::{Error as CoreError, Real, Vec3};
+use garmatnet_core::{Error as CoreError, Garment, Material, Real, SpringKind, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -185,6 +185,47 @@ fn out_of_range(what: String, value: Real, min: Real, max: Real) -> crate::error
         hint: String::new(),
     }
     .into()
+}
+
+/// The garment as a mass-spring cloth of `material`.
+///
+/// Every spring's constant is the material's stiffness for its [`SpringKind`], unscaled: the
+/// material's stiffnesses are membrane stiffnesses (N/m), equal to the spring constant on a
+/// square grid at any resolution (see [`garmatnet_core::Material`]); shear and flexion are
+/// used as given. Masses are [`Garment::vertex_masses`] at the material's density.
+/// Out-of-bounds but [physical](Material::is_physical) materials are accepted, for stress
+/// tests.
+///
+/// # Errors
+/// [`CoreError::OutOfRange`] or [`CoreError::NonFinite`] if the material is not physical;
+/// as [`ClothModel::new`] for a broken garment.
+pub fn cloth_from_garment(garment: &Garment, material: &Material) -> Result<ClothModel> {
+    Material::physical(
+        material.structural_vertical,
+        material.structural_horizontal,
+        material.flexion_vertical,
+        material.flexion_horizontal,
+        material.shear,
+        material.density,
+    )?;
+    let springs: Vec<SpringSpec> = garment
+        .springs
+        .iter()
+        .map(|s| SpringSpec {
+            a: s.a as usize,
+            b: s.b as usize,
+            rest_length: s.rest_length,
+            stiffness: match s.kind {
+                SpringKind::StructuralVertical => material.structural_vertical,
+                SpringKind::StructuralHorizontal => material.structural_horizontal,
+                SpringKind::Shear => material.shear,
+                SpringKind::FlexionVertical => material.flexion_vertical,
+                SpringKind::FlexionHorizontal => material.flexion_horizontal,
+            },
+        })
+        .collect();
+    let masses = garment.vertex_masses(material.density);
+    ClothModel::new(&garment.rest.vertices, &springs, &masses)
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ pub(crate) mod contact;
 pub(crate) mod drape_energy;
 pub(crate) mod drape_settings;
 pub(crate) mod drape_solver;
+pub(crate) mod frame_stepper;
 pub(crate) mod garment_drape;
 pub(crate) mod grid_sheet;
 pub(crate) mod mirror_symmetry;

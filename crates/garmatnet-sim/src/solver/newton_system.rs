@@ -350,7 +350,7 @@ mod tests {
     use approx::assert_relative_eq;
     use garmatnet_core::{CapsuleBody, Garment, Material, Resolution, Vec3};
 
-    use crate::solver::garment_drape::cloth_from_garment;
+    use crate::solver::cloth_model::cloth_from_garment;
 
     /// The T-shirt's cloth model of Cotton Poplin at `resolution`.
     fn tshirt(resolution: Resolution) -> ClothModel {
