@@ -4,6 +4,7 @@
 pub(crate) mod calibrated;
 pub(crate) mod calibration;
 pub mod material_range;
+pub(crate) mod on_body;
 pub(crate) mod predictor;
 pub(crate) mod push_out;
 pub(crate) mod scene;

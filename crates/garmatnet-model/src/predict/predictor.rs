@@ -10,7 +10,7 @@ use std::sync::{Arc, OnceLock};
 use burn::prelude::*;
 use garmatnet_core::{
     BodyAnchor, CapsuleBody, DisplacementFrame, Garment, Iso3, JOINT_COUNT, Material, POSE_DIM,
-    Pose, Real, SignedDistance, Skeleton, SkinnedBody, TriMesh, Vec3, push_mesh_outside,
+    Pose, Real, Skeleton, SkinnedBody, TriMesh, Vec3,
 };
 
 use crate::error::{Error, Result};
@@ -18,7 +18,7 @@ use crate::file::model_file::GarMatNetModel;
 use crate::net::garmatnet_net::MATERIAL_DIM;
 use crate::net::tensor_util::{matrix, to_f32};
 use crate::predict::material_range::{MaterialRange, TrainingFabric, nearest};
-use crate::predict::push_out::{PushOut, PushOutReport, push_out};
+use crate::predict::push_out::PushOut;
 use garmatnet_core::error::ensure_finite;
 
 /// How much of the model to run.
@@ -302,6 +302,13 @@ impl Predictor {
         Ok(self)
     }
 
+    /// The body push-out [`Predictor::predict`] applies ([`Predictor::with_push_out`] sets
+    /// it; on by default, 2 mm at the vertices).
+    #[must_use]
+    pub fn push_out_settings(&self) -> PushOut {
+        self.push_out
+    }
+
     /// The model.
     #[must_use]
     pub fn model(&self) -> &GarMatNetModel {
@@ -478,73 +485,6 @@ impl Predictor {
             .collect()
     }
 
-    /// `meshes`, each pushed out of the body posed at its pose in `poses`, when the
-    /// predictor knows the body and push-out is enabled.
-    pub(crate) fn pushed_out(
-        &self,
-        mut meshes: Vec<GarmentMesh>,
-        poses: &[Pose],
-    ) -> Vec<GarmentMesh> {
-        for (mesh, pose) in meshes.iter_mut().zip(poses) {
-            self.push_out_vertices(&mut mesh.vertices, pose);
-        }
-        meshes
-    }
-
-    /// Pushes `vertices` (any of the garment's, in any order) out of the body posed at
-    /// `pose`, when the predictor knows the body and push-out is enabled.
-    pub(crate) fn push_out_vertices(&self, vertices: &mut [Vec3], pose: &Pose) {
-        if let Some(body) = self.body.as_ref().filter(|_| self.push_out.enabled) {
-            // As in `predict`, the report is dropped: `predict_on_body` returns it.
-            let _ = self.push_out_mesh(vertices, &body.pose(pose));
-        }
-    }
-
-    /// Push-out of a predicted garment as [`Predictor::with_push_out`] set it: every vertex
-    /// to its clearance, then, with [`PushOut::faces`], the triangles between them
-    /// ([`push_mesh_outside`]). The report counts both.
-    fn push_out_mesh(
-        &self,
-        vertices: &mut [Vec3],
-        body: &(dyn SignedDistance + Sync),
-    ) -> PushOutReport {
-        if !self.push_out.faces {
-            return push_out(vertices, body, self.push_out.epsilon);
-        }
-        let start = vertices.to_vec();
-        let _ = push_out(vertices, body, self.push_out.epsilon);
-        push_mesh_outside(vertices, &self.faces, body, &[]);
-        start
-            .iter()
-            .zip(vertices.iter())
-            .map(|(a, b)| (b - a).norm())
-            .fold(PushOutReport::default(), |r, d| PushOutReport {
-                moved: r.moved + usize::from(d > 0.0),
-                max_move: r.max_move.max(d),
-            })
-    }
-
-    /// Predicts the garment and pushes it out of the posed `body` (when push-out is enabled;
-    /// see [`Predictor::with_push_out`]).
-    ///
-    /// # Errors
-    /// As [`Predictor::predict_normalized`].
-    pub fn predict_on_body(
-        &self,
-        pose: &Pose,
-        material: &[Real; MATERIAL_DIM],
-        detail: Detail,
-        body: &(dyn SignedDistance + Sync),
-    ) -> Result<(GarmentMesh, PushOutReport)> {
-        let mut mesh = self.predict_normalized(pose, material, detail)?;
-        let report = if self.push_out.enabled {
-            self.push_out_mesh(&mut mesh.vertices, body)
-        } else {
-            PushOutReport::default()
-        };
-        Ok((mesh, report))
-    }
-
     /// The garment's body points for `pose`: every anchor posed by linear blend skinning.
     #[must_use]
     pub fn body_points(&self, pose: &Pose) -> Vec<Vec3> {
@@ -692,7 +632,7 @@ mod tests {
     };
     use crate::{GarMatNetConfig, GarMatNetModel};
     use approx::assert_relative_eq;
-    use garmatnet_core::{JointLimits, Resolution, Sphere, SplitMix64, TemplateInfo};
+    use garmatnet_core::{JointLimits, Resolution, SplitMix64, TemplateInfo};
 
     /// Untrained nets (random weights: a garment far from symmetric) for the coarse fitted
     /// T-shirt, whose template is mirror-symmetric, with mirror averaging as built.
@@ -1072,52 +1012,5 @@ mod tests {
                 assert_relative_eq!(u, v, max_relative = 1e-4, epsilon = 1e-6);
             }
         }
-    }
-
-    #[test]
-    fn push_out_on_body_moves_vertices_out_of_a_sphere() {
-        let p = predictor(7, DisplacementFrame::World);
-        let pose = Pose::zero();
-        let m = [0.5; 6];
-        let plain = p.predict_normalized(&pose, &m, Detail::Full).unwrap();
-        let centre = plain.vertices[0];
-        let sphere = Sphere {
-            centre,
-            radius: 0.1,
-        };
-        let inside = plain
-            .vertices
-            .iter()
-            .filter(|v| sphere.distance(v) < 0.002)
-            .count();
-        assert!(inside > 0);
-        let (mesh, report) = p.predict_on_body(&pose, &m, Detail::Full, &sphere).unwrap();
-        assert_eq!(report.moved, inside);
-        assert!(
-            mesh.vertices
-                .iter()
-                .all(|v| sphere.distance(v) >= 0.002 - 1e-9)
-        );
-        for epsilon in [Real::NAN, -0.001, 1.0] {
-            let refused = predictor(7, DisplacementFrame::World)
-                .with_push_out(PushOut {
-                    enabled: true,
-                    epsilon,
-                    faces: false,
-                })
-                .unwrap_err();
-            assert!(refused.to_string().contains("epsilon"), "{refused}");
-        }
-        let off = predictor(7, DisplacementFrame::World)
-            .with_push_out(PushOut {
-                enabled: false,
-                ..PushOut::default()
-            })
-            .unwrap();
-        let (mesh, report) = off
-            .predict_on_body(&pose, &m, Detail::Full, &sphere)
-            .unwrap();
-        assert_eq!(report.moved, 0);
-        assert_eq!(mesh, plain);
     }
 }
