@@ -120,7 +120,7 @@ impl std::str::FromStr for PoseEncoding {
 }
 
 /// R(θⱼ) − I for every joint by Rodrigues' formula, written so it stays accurate at small
-/// angles: R − I = (sin a / a) [x]ₓ + ((1 − cos a) / a²) (x xᵀ − a² I) with a = |x|, and
+/// angles: R − I = (sin a / a) \[x\]ₓ + ((1 − cos a) / a²) (x xᵀ − a² I) with a = |x|, and
 /// 1 − cos a = 2 sin²(a / 2).
 ///
 /// # Shapes

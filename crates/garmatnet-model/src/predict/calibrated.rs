@@ -18,8 +18,8 @@ use crate::predict::predictor::{Detail, GarmentMesh, Predictor, validate_inputs,
 
 impl Predictor {
     /// Calibrates `material` (called `name` in the result) with `references`, the
-    /// simulator's drapes of it at one or more poses: the weights of the module docs, fitted
-    /// to every reference drape at once.
+    /// simulator's drapes of it at one or more poses: the weights of the `calibration`
+    /// module's docs, fitted to every reference drape at once.
     ///
     /// Choose reference poses at which the nets are accurate, such as poses they were trained
     /// on: the weights fit the whole gap between prediction and drape there, and a gap
@@ -225,8 +225,8 @@ impl Predictor {
         Ok(out)
     }
 
-    /// The blended prediction of module docs for a batch of poses, before push-out; the
-    /// caller has validated the poses and the calibration.
+    /// The blended prediction of the `calibration` module's docs for a batch of poses,
+    /// before push-out; the caller has validated the poses and the calibration.
     pub(crate) fn calibrated_batch(
         &self,
         poses: &[Pose],

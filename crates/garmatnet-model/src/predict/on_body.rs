@@ -34,6 +34,8 @@ impl Predictor {
     /// Push-out of a predicted garment as [`Predictor::with_push_out`] set it: every vertex
     /// to its clearance, then, with [`PushOut::faces`], the triangles between them
     /// ([`push_mesh_outside`]). The report counts both.
+    ///
+    /// [`PushOut::faces`]: crate::PushOut::faces
     fn push_out_mesh(
         &self,
         vertices: &mut [Vec3],

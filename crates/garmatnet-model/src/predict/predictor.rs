@@ -302,8 +302,8 @@ impl Predictor {
         Ok(self)
     }
 
-    /// The body push-out [`Predictor::predict`] applies ([`Predictor::with_push_out`] sets
-    /// it; on by default, 2 mm at the vertices).
+    /// The body push-out [`Predictor::predict`] applies when the predictor knows its body
+    /// ([`Predictor::with_push_out`] sets it; on by default, 2 mm at the vertices).
     #[must_use]
     pub fn push_out_settings(&self) -> PushOut {
         self.push_out

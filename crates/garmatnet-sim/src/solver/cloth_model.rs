@@ -1,4 +1,5 @@
-//! The cloth as Provot's mass-spring system: rest positions, springs and per-vertex masses.
+//! The cloth as Provot's mass-spring system: rest positions, springs and per-vertex masses;
+//! [`cloth_from_garment`] builds one for a garment and a fabric.
 
 use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{Error as CoreError, Garment, Material, Real, SpringKind, Vec3};

@@ -1,5 +1,8 @@
 //! A draped garment that follows its body from pose to pose, one frame at a time on one
-//! solver: what an application steps, and what [`drape_sequence`](crate::drape_sequence) walks a sequence with.
+//! solver: what an application steps, and what [`drape_sequence`] walks a sequence with;
+//! drapes are recorded at the f32 precision datasets store.
+//!
+//! [`drape_sequence`]: crate::drape_sequence
 
 use garmatnet_core::error::ensure_finite;
 use garmatnet_core::{
@@ -19,7 +22,7 @@ use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
 /// ([`PosedBody::carry_to`]; unless [`FrameStepper::follow_body`] is off), then runs the
 /// solver from there with friction measured from the carried positions, so the shirt moves
 /// with the body and slides only where it is pulled harder than the Coulomb bound. The
-/// solver's [`DrapeSettings::max_iterations`] is the budget of a step: [`drape_sequence`](crate::drape_sequence)
+/// solver's [`DrapeSettings::max_iterations`] is the budget of a step: [`drape_sequence`]
 /// converges every pose (its default cap, 300), while an interactive application can stop
 /// after a few iterations. Measured (book/src/solver.md; `cargo run -p
 /// garmatnet-sim --release --example frame_budget`): at the paper resolution, 8 iterations
@@ -48,6 +51,8 @@ use crate::solver::drape_solver::{DrapeSolver, DrapeStats};
 /// }
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
+///
+/// [`drape_sequence`]: crate::drape_sequence
 #[derive(Debug, Clone)]
 pub struct FrameStepper {
     solver: DrapeSolver,
@@ -98,8 +103,10 @@ impl FrameStepper {
     }
 
     /// Whether [`FrameStepper::step`] carries the cloth with the skin first (default true;
-    /// [`SequenceSettings::follow_body`](crate::SequenceSettings::follow_body)). Off, each step starts where the cloth was and
+    /// [`SequenceSettings::follow_body`]). Off, each step starts where the cloth was and
     /// friction treats the body as still.
+    ///
+    /// [`SequenceSettings::follow_body`]: crate::SequenceSettings::follow_body
     #[must_use]
     pub fn follow_body(mut self, follow: bool) -> Self {
         self.follow_body = follow;
@@ -141,7 +148,7 @@ impl FrameStepper {
     /// from each recorded drape, as a walk resumed from its last sample must.
     ///
     /// # Errors
-    /// As [`ClothModel::max_strain`].
+    /// As [`ClothModel::max_strain`](crate::ClothModel::max_strain).
     pub(crate) fn record(&mut self, faces: &[[u32; 3]], stats: &mut DrapeStats) -> Result<()> {
         let pushed = push_mesh_outside(&mut self.positions, faces, &self.posed, &[]);
         round_to_f32(&mut self.positions);
