@@ -15,7 +15,11 @@ fn garmatnet() -> Command {
 }
 
 /// Runs `garmatnet args` and asserts it fails, says `hint` on stderr and leaves no `out`.
-fn assert_fails_cleanly(args: &[&str], hint: &str, out: &std::path::Path) -> anyhow::Result<()> {
+fn assert_fails_cleanly<S: AsRef<std::ffi::OsStr> + std::fmt::Debug>(
+    args: &[S],
+    hint: &str,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
     let output = garmatnet()
         .args(args)
         .env_remove("RUST_BACKTRACE")

@@ -47,7 +47,6 @@ fn bench_and_stress_bad_input_fails_with_a_message_and_leaves_no_output() -> any
         ),
     ];
     for (args, hint) in cases {
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
         assert_fails_cleanly(&args, hint, &out)?;
     }
     Ok(())

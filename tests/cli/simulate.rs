@@ -359,7 +359,6 @@ fn simulate_materials_none_drapes_only_the_random_fabrics() -> anyhow::Result<()
         ("", "2", "or `none`"),
     ] {
         let a = toy_random_simulate(materials, random, "5", &quick, &refused);
-        let a: Vec<&str> = a.iter().map(String::as_str).collect();
         assert_fails_cleanly(&a, hint, &refused)?;
     }
     Ok(())
